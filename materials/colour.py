@@ -1,0 +1,110 @@
+"""Spectrum → colour, with the renderer's own observer, illuminant and display transform.
+
+One colour pipeline for analysis and rendering:
+
+* CIE 1931 2° colour-matching functions and the CIE D65 illuminant are taken from Mitsuba
+  (``mi.cie1931_xyz``, Wyman, Sloan & Shirley 2013 multi-lobe fit; ``mi.cie_d65``), the very
+  functions Mitsuba's spectral film integrates with.
+* XYZ → linear Rec.709/sRGB uses Mitsuba's ``mi.xyz_to_srgb`` matrix.
+* Display encoding goes through OpenColorIO's built-in CG config, display ``sRGB - Display``,
+  view ``Un-tone-mapped`` by default — the same transform ``pavonine render --png`` applies.
+
+A reflectance spectrum R(λ) lit by D65 gives tristimulus values
+``X = ∫ R S x̄ dλ / ∫ S ȳ dλ`` (CIE 15:2004 §7.1), so a perfect white reflector has Y = 1 and
+linear sRGB (1, 1, 1).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+CIE_RANGE_NM = (360.0, 830.0)  # Mitsuba's MI_CIE_MIN, MI_CIE_MAX
+OCIO_CONFIG = "ocio://cg-config-latest"
+SCENE_LINEAR = "Linear Rec.709 (sRGB)"
+DISPLAY = "sRGB - Display"
+DEFAULT_VIEW = "Un-tone-mapped"
+
+
+@functools.cache
+def _mitsuba_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(λ grid, CMFs (n, 3), D65 (n,), XYZ→sRGB matrix) evaluated once with Mitsuba."""
+    from pavonine.backend import select_variant
+
+    select_variant()
+    import drjit as dr
+    import mitsuba as mi
+
+    grid = np.arange(CIE_RANGE_NM[0], CIE_RANGE_NM[1] + 0.5, 1.0)
+    if dr.is_jit_v(mi.Float):
+        lam = mi.Float(grid)
+        cmf = np.array(mi.cie1931_xyz(lam)).T
+        d65 = np.array(mi.cie_d65(lam))
+        basis = mi.Color3f(mi.Float([1, 0, 0]), mi.Float([0, 1, 0]), mi.Float([0, 0, 1]))
+        matrix = np.array(mi.xyz_to_srgb(basis))
+    else:
+        cmf = np.array([np.array(mi.cie1931_xyz(float(w))) for w in grid])
+        d65 = np.array([float(mi.cie_d65(float(w))) for w in grid])
+        matrix = np.array([np.array(mi.xyz_to_srgb(mi.Color3f(*e))) for e in np.eye(3)]).T
+    return grid, cmf.astype(np.float64), d65.astype(np.float64), matrix.astype(np.float64)
+
+
+def cmfs(wavelengths_nm: np.ndarray) -> np.ndarray:
+    """CIE 1931 2° x̄, ȳ, z̄ at ``wavelengths_nm`` (shape (..., 3)); zero outside 360–830 nm."""
+    grid, cmf, _, _ = _mitsuba_tables()
+    w = np.asarray(wavelengths_nm, dtype=np.float64)
+    return np.stack([np.interp(w, grid, cmf[:, i], left=0.0, right=0.0) for i in range(3)], -1)
+
+
+def d65(wavelengths_nm: np.ndarray) -> np.ndarray:
+    """Relative spectral power of CIE D65 at ``wavelengths_nm`` (Mitsuba's normalisation)."""
+    grid, _, spd, _ = _mitsuba_tables()
+    return np.interp(np.asarray(wavelengths_nm, dtype=np.float64), grid, spd, left=0.0, right=0.0)
+
+
+def reflectance_to_xyz(wavelengths_nm: np.ndarray, reflectance: np.ndarray) -> np.ndarray:
+    """XYZ of a reflectance spectrum under D65 (CIE 15:2004 §7.1); last axis of ``reflectance`` is λ.
+
+    Normalised over the same wavelength samples, so R ≡ 1 gives Y = 1 exactly.
+    """
+    w = np.asarray(wavelengths_nm, dtype=np.float64)
+    weights = cmfs(w) * d65(w)[:, None]  # (n, 3)
+    dw = np.gradient(w) if w.size > 1 else np.ones(1)
+    weights = weights * dw[:, None]
+    return np.asarray(reflectance, dtype=np.float64) @ weights / weights[:, 1].sum()
+
+
+def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
+    """XYZ → scene-linear Rec.709 (sRGB primaries, D65 white), Mitsuba's matrix."""
+    _, _, _, matrix = _mitsuba_tables()
+    return np.asarray(xyz, dtype=np.float64) @ matrix.T
+
+
+def reflectance_to_linear_srgb(wavelengths_nm: np.ndarray, reflectance: np.ndarray) -> np.ndarray:
+    """Scene-linear Rec.709 colour of a reflectance spectrum lit by D65."""
+    return xyz_to_linear_srgb(reflectance_to_xyz(wavelengths_nm, reflectance))
+
+
+@functools.cache
+def _display_processor(view: str):
+    import PyOpenColorIO as ocio
+
+    config = ocio.Config.CreateFromFile(OCIO_CONFIG)
+    transform = ocio.DisplayViewTransform(src=SCENE_LINEAR, display=DISPLAY, view=view)
+    return config.getProcessor(transform).getDefaultCPUProcessor()
+
+
+def display_encode(linear_rgb: np.ndarray, view: str = DEFAULT_VIEW) -> np.ndarray:
+    """Scene-linear Rec.709 → display-referred sRGB in [0, 1] through OpenColorIO."""
+    rgb = np.ascontiguousarray(np.asarray(linear_rgb, dtype=np.float32).reshape(-1, 3)).copy()
+    _display_processor(view).applyRGB(rgb)
+    return np.clip(rgb, 0.0, 1.0).reshape(np.shape(linear_rgb))
+
+
+def swatch(linear_rgb: np.ndarray) -> np.ndarray:
+    """Display sRGB swatch of a colour, scaled down (hue kept) so no channel exceeds 1, negatives clipped."""
+    rgb = np.clip(np.asarray(linear_rgb, dtype=np.float64), 0.0, None)
+    peak = np.max(rgb, axis=-1, keepdims=True)
+    rgb = np.where(peak > 1.0, rgb / np.where(peak > 0, peak, 1.0), rgb)
+    return display_encode(rgb)

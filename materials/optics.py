@@ -1,0 +1,245 @@
+"""Public face of the optics model: the paper's equations, presets, spectra and colours.
+
+Everything here is NumPy; the renderer runs the same :mod:`pavonine.materials.brdf` code under
+Dr.Jit. Angles at this level are in degrees, wavelengths in nm, lengths of parameters in µm.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pavonine.materials import colour
+from pavonine.materials.barbule import (
+    crescent_density,
+    orientation_blend,
+    rod_gradient_weight,
+)
+from pavonine.materials.brdf import FeatherModel, direction
+from pavonine.materials.layers import (
+    array_factor,
+    fill_factor,
+    multilayer_intensity,
+    optical_distance,
+    rod_row_intensity,
+)
+from pavonine.materials.parameters import (
+    PRESETS,
+    FeatherParameters,
+    ParameterError,
+    preset,
+    uniform_parameters,
+)
+from pavonine.materials.rod import (
+    amplitude,
+    cylinder_coefficients,
+    efficiencies,
+    n_max_for,
+    unpolarised_intensity,
+)
+from pavonine.materials.transfer_matrix import multilayer_reflectance, rod_stack_layers
+
+__all__ = [
+    "PRESETS",
+    "FeatherModel",
+    "FeatherParameters",
+    "ParameterError",
+    "SpectrumSummary",
+    "amplitude",
+    "array_factor",
+    "crescent_density",
+    "cylinder_coefficients",
+    "direction",
+    "directional_albedo",
+    "efficiencies",
+    "fill_factor",
+    "model_for",
+    "multilayer_intensity",
+    "multilayer_reflectance",
+    "n_max_for",
+    "optical_distance",
+    "orientation_blend",
+    "preset",
+    "preview_color",
+    "reflectance_spectra",
+    "rod_gradient_weight",
+    "rod_row_intensity",
+    "rod_stack_layers",
+    "summarise",
+    "uniform_parameters",
+    "unpolarised_intensity",
+]
+
+PLOT_WAVELENGTHS_NM = np.arange(380.0, 781.0, 1.0)
+COLOUR_WAVELENGTHS_NM = np.arange(360.0, 831.0, 1.0)
+VALID_WAVELENGTHS_NM = (300.0, 900.0)
+
+
+def check_wavelengths(wavelengths_nm: np.ndarray) -> np.ndarray:
+    """Wavelengths as an array, or :class:`ParameterError` outside 300–900 nm / NaN."""
+    w = np.asarray(wavelengths_nm, dtype=np.float64)
+    if np.any(np.isnan(w)):
+        raise ParameterError("wavelength", "is NaN")
+    lo, hi = VALID_WAVELENGTHS_NM
+    if np.any((w < lo) | (w > hi)):
+        raise ParameterError("wavelength", f"must lie in {lo:g}–{hi:g} nm, got {w.min():g}–{w.max():g}")
+    return w
+
+
+def check_angle(name: str, degrees: float) -> float:
+    """An angle from the vane normal in degrees, or :class:`ParameterError` outside (−90°, 90°)."""
+    value = float(degrees)
+    if math.isnan(value):
+        raise ParameterError(name, "is NaN")
+    if not -90.0 < value < 90.0:
+        raise ParameterError(name, f"must lie inside the hemisphere (-90, 90) degrees, got {value:g}")
+    return value
+
+
+@functools.lru_cache(maxsize=32)
+def model_for(params: FeatherParameters) -> FeatherModel:
+    """A cached :class:`FeatherModel` (the row-reflectance table is built once per material)."""
+    return FeatherModel(params)
+
+
+def reflectance_spectra(
+    params: FeatherParameters,
+    incidence_deg: float,
+    observe_deg: np.ndarray,
+    *,
+    ocellar_class: int = 0,
+    gradation: float = 0.0,
+    azimuth_deg: float = 90.0,
+    structural_share: float = 1.0,
+    wavelengths_nm: np.ndarray = PLOT_WAVELENGTHS_NM,
+) -> np.ndarray:
+    """Reflectance factor ``π f(ω_i, ω_o, λ)`` (relative to a perfect white diffuser), shape (n_obs, n_λ).
+
+    In-plane geometry as in the paper's Figure 5: the light at ``incidence_deg`` and the observer at
+    ``observe_deg`` on the opposite side of the vane normal (negative = same side as the light), in
+    the plane at ``azimuth_deg`` from the barbule's long axis (90° = across the barbule).
+    """
+    wavelengths = check_wavelengths(wavelengths_nm)
+    incidence = check_angle("incidence", incidence_deg)
+    observe = np.array([check_angle("observe", o) for o in np.atleast_1d(observe_deg)])
+    model = model_for(params)
+    wi = direction(incidence, azimuth_deg)
+    wo = direction(observe, azimuth_deg + 180.0)[:, None, :]
+    f = model.brdf(wi, wo, wavelengths[None, :], ocellar_class, gradation, structural_share)
+    return math.pi * f
+
+
+@dataclass(frozen=True)
+class SpectrumSummary:
+    """Peak wavelength, full width at half maximum and display colour of one spectrum."""
+
+    observe_deg: float
+    peak_nm: float
+    fwhm_nm: float | None
+    srgb: tuple[float, float, float]
+    peak_value: float
+
+    def as_json(self) -> dict:
+        return {
+            "observe_deg": self.observe_deg,
+            "peak_nm": round(self.peak_nm, 2),
+            "fwhm_nm": None if self.fwhm_nm is None else round(self.fwhm_nm, 2),
+            "srgb": [round(c, 4) for c in self.srgb],
+        }
+
+
+def peak_and_width(wavelengths_nm: np.ndarray, values: np.ndarray) -> tuple[float, float | None]:
+    """Peak wavelength (parabolic refinement) and FWHM of the band around it (None if not closed)."""
+    w, v = np.asarray(wavelengths_nm, float), np.asarray(values, float)
+    i = int(np.argmax(v))
+    peak = w[i]
+    if 0 < i < len(v) - 1:
+        denom = v[i - 1] - 2 * v[i] + v[i + 1]
+        if denom < 0:
+            peak = w[i] + 0.5 * (v[i - 1] - v[i + 1]) / denom * (w[1] - w[0])
+    half = 0.5 * v[i]
+    left = np.nonzero(v[:i] < half)[0]
+    right = np.nonzero(v[i:] < half)[0]
+    if half <= 0 or left.size == 0 or right.size == 0:
+        return float(peak), None
+    j, k = left[-1], i + right[0]
+    lo = w[j] + (half - v[j]) / (v[j + 1] - v[j]) * (w[j + 1] - w[j])
+    hi = w[k - 1] + (half - v[k - 1]) / (v[k] - v[k - 1]) * (w[k] - w[k - 1])
+    return float(peak), float(hi - lo)
+
+
+def summarise(
+    params: FeatherParameters,
+    incidence_deg: float,
+    observe_deg: np.ndarray,
+    **kwargs,
+) -> list[SpectrumSummary]:
+    """One :class:`SpectrumSummary` per observation angle; colour over 360–830 nm under D65."""
+    observe = np.atleast_1d(np.asarray(observe_deg, float))
+    plot = reflectance_spectra(params, incidence_deg, observe, **kwargs)
+    full = reflectance_spectra(
+        params, incidence_deg, observe, wavelengths_nm=COLOUR_WAVELENGTHS_NM, **kwargs
+    )
+    rgb = colour.reflectance_to_linear_srgb(COLOUR_WAVELENGTHS_NM, full)
+    swatches = colour.swatch(rgb)
+    out = []
+    for o, spectrum, sw in zip(observe, plot, swatches, strict=True):
+        peak, width = peak_and_width(PLOT_WAVELENGTHS_NM, spectrum)
+        out.append(SpectrumSummary(float(o), peak, width, tuple(float(c) for c in sw), float(spectrum.max())))
+    return out
+
+
+def directional_albedo(
+    params: FeatherParameters,
+    incidence_deg: float,
+    *,
+    azimuth_deg: float = 90.0,
+    ocellar_class: int = 0,
+    gradation: float = 0.0,
+    structural_share: float = 1.0,
+    wavelengths_nm: np.ndarray = COLOUR_WAVELENGTHS_NM,
+    n_slopes: int = 96,
+) -> np.ndarray:
+    """Directional albedo ``∫ f(ω_i, ω_o) cos θ_o dω_o`` per wavelength, by quadrature over slopes.
+
+    The structural lobe is integrated in microfacet-slope space around the normal (h =
+    normalize(−p, −q, 1), ``dω_o = 4 (ω_i·h) h_z³ dp dq``), which resolves narrow lobes exactly
+    where the BRDF lives; the melanin part is Lambertian and integrates to ρ in closed form.
+    """
+    model = model_for(params)
+    wavelengths = check_wavelengths(wavelengths_nm)
+    wi = direction(check_angle("incidence", incidence_deg), azimuth_deg)
+    ax = math.sqrt(2.0) * math.tan(
+        math.hypot(model.constants.block_sigma, 0.376 * wavelengths.max() / model.constants.rod_length_nm)
+    )
+    ay = math.sqrt(2.0) * math.tan(model.constants.crescent_sigma)
+    p = np.linspace(-7.0 * ax, 7.0 * ax, n_slopes)
+    q = np.linspace(-7.0 * ay, 7.0 * ay, n_slopes)
+    pp, qq = np.meshgrid(p, q, indexing="ij")
+    h = np.stack([-pp, -qq, np.ones_like(pp)], -1)
+    h /= np.linalg.norm(h, axis=-1, keepdims=True)
+    i_dot_h = h @ wi
+    wo = 2.0 * i_dot_h[..., None] * h - wi
+    jac = 4.0 * np.clip(i_dot_h, 0, None) * h[..., 2] ** 3 * (p[1] - p[0]) * (q[1] - q[0])
+    f = model.structural(wo[..., None, :] * 0 + wi, wo[..., None, :], wavelengths, ocellar_class, gradation)
+    weight = np.clip(wo[..., 2], 0.0, None) * jac
+    structural = np.einsum("ijk,ij->k", f, weight)
+    from pavonine.materials.brdf import melanin_albedo
+
+    return structural_share * structural + (1.0 - structural_share) * melanin_albedo(
+        params.melanin_color, wavelengths
+    )
+
+
+def preview_color(
+    params: FeatherParameters, ocellar_class: int = 0, gradation: float = 0.5
+) -> tuple[float, float, float]:
+    """Linear-sRGB colour for non-spectral previews: the D65 colour of the directional albedo at 20°."""
+    albedo = directional_albedo(
+        params, 20.0, ocellar_class=ocellar_class, gradation=gradation, n_slopes=48
+    )
+    rgb = np.clip(colour.reflectance_to_linear_srgb(COLOUR_WAVELENGTHS_NM, albedo), 0.0, 1.0)
+    return tuple(float(c) for c in rgb)

@@ -1,0 +1,309 @@
+"""``pavonine_feather``: the peacock-feather BSDF as a Mitsuba 3 plugin (spectral, two-sided).
+
+``eval`` runs :func:`pavonine.materials.brdf.feather_brdf` — the analysis model's own code — on
+Dr.Jit arrays, so in an ``llvm_*`` variant it is JIT-compiled with the rest of the integrator.
+Per shading point it reads four maps through Mitsuba textures at ``si.uv`` (data, raw):
+
+* ``ocellar``: grey g → class ``k = round((1 − g)(n − 1))`` (white = class 0 … black = class n−1)
+* ``gradation``: t ∈ [0, 1] between the class's black (0) and white (1) ends (Table 1)
+* ``angle``: grey g → barbule long axis at ``g · 180°`` from the surface tangent ``dp/du``
+* ``melanin``: structural share w (1 = full structural colour, 0 = melanin brown)
+
+The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
+detail); :func:`feather_bsdf_dict` builds that nesting. Sampling: visible normals of the
+structural lobe's anisotropic Beckmann distribution (``mi.MicrofacetDistribution``) with
+probability w, cosine-weighted hemisphere for the melanin part otherwise.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from pavonine.backend import select_variant
+from pavonine.materials import barbule
+from pavonine.materials.brdf import (
+    UM_TO_NM,
+    MaterialConstants,
+    RowTable,
+    feather_brdf,
+    srgb_model_eval,
+)
+from pavonine.materials.parameters import FeatherParameters
+
+PLUGIN_NAME = "pavonine_feather"
+SAMPLING_WAVELENGTH_NM = 550.0
+QUANTITIES = ("interval", "radius", "count")
+DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
+MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
+
+
+def encode_parameters(params: FeatherParameters) -> dict:
+    """The plugin's scalar properties for a material (class tables as comma-separated strings)."""
+    arrays = params.class_arrays()
+    props: dict = {
+        f"{axis}_{q}": ",".join(repr(float(v)) for v in arrays[f"{axis}_{q}"].ravel())
+        for axis in ("long", "short")
+        for q in QUANTITIES
+    }
+    props.update(
+        n_classes=len(params.classes),
+        melanin_index=params.melanin_index,
+        medium_index=params.medium_index,
+        crescent_sigma_deg=params.crescent_sigma_deg,
+        block_sigma_deg=params.block_sigma_deg,
+        rod_length_um=params.rod_length_um,
+        interference=params.interference,
+        melanin_color=",".join(repr(c) for c in params.melanin_color),
+    )
+    return props
+
+
+def decode_parameters(props) -> FeatherParameters:
+    """Inverse of :func:`encode_parameters` (from a ``mi.Properties`` or a dict)."""
+    n = int(props["n_classes"])
+    arrays = {
+        f"{axis}_{q}": np.array([float(v) for v in str(props[f"{axis}_{q}"]).split(",")]).reshape(n, 2)
+        for axis in ("long", "short")
+        for q in QUANTITIES
+    }
+    return FeatherParameters.from_class_arrays(
+        arrays,
+        melanin_index=float(props["melanin_index"]),
+        medium_index=float(props["medium_index"]),
+        crescent_sigma_deg=float(props["crescent_sigma_deg"]),
+        block_sigma_deg=float(props["block_sigma_deg"]),
+        rod_length_um=float(props["rod_length_um"]),
+        interference=str(props["interference"]),
+        melanin_color=tuple(float(c) for c in str(props["melanin_color"]).split(",")),
+    )
+
+
+def _bitmap(path: str, *, nearest: bool = False) -> dict:
+    return {
+        "type": "bitmap",
+        "filename": str(path),
+        "raw": True,
+        "filter_type": "nearest" if nearest else "bilinear",
+        "wrap_mode": "clamp",
+    }
+
+
+def feather_bsdf_dict(
+    params: FeatherParameters,
+    maps: Mapping[str, str | None] | None = None,
+    *,
+    bump_scale: float = 0.002,
+) -> dict:
+    """A ``mi.load_dict`` description of the feather material with its maps (missing = uniform)."""
+    maps = dict(maps or {})
+    bsdf: dict = {"type": PLUGIN_NAME, **encode_parameters(params.validate())}
+    for name in DATA_MAPS:
+        if maps.get(name):
+            bsdf[name] = _bitmap(maps[name], nearest=name == "ocellar")
+    if maps.get("displacement"):
+        bsdf = {
+            "type": "bumpmap",
+            "arbitrary": _bitmap(maps["displacement"]),
+            "scale": bump_scale,
+            "bsdf": bsdf,
+        }
+    if maps.get("alpha"):
+        bsdf = {"type": "mask", "opacity": _bitmap(maps["alpha"]), "bsdf": bsdf}
+    return bsdf
+
+
+@functools.cache
+def _plugin_class(variant: str):
+    """Define the BSDF class for the active variant (Mitsuba classes are per variant)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from pavonine.materials.arraymath import DrJitOps
+
+    class FeatherBSDF(mi.BSDF):
+        """Peacock-feather BSDF; see :mod:`pavonine.render.feather_bsdf`."""
+
+        def __init__(self, props: mi.Properties):
+            mi.BSDF.__init__(self, props)
+            self.params = decode_parameters(props).validate()
+            self.ops = DrJitOps()
+            self.constants = MaterialConstants.from_parameters(self.params)
+            table = RowTable.build(complex(self.params.melanin_index / self.params.medium_index))
+            self.table = RowTable(mi.Float(table.values), table.x_max, table.n_x, table.n_cos)
+            arrays = self.params.class_arrays()
+            scale = {"interval": UM_TO_NM, "radius": UM_TO_NM, "count": 1.0}
+            self.class_tables = {
+                key: mi.Float((value * scale[key.split("_")[1]]).ravel())
+                for key, value in arrays.items()
+            }
+            self.n_classes = len(self.params.classes)
+            self.maps = {name: props.get(name, None) for name in DATA_MAPS}
+            self.melanin_coefficients = [
+                float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*self.params.melanin_color))
+            ]
+            self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
+            self.alpha_x_sampling = float(
+                barbule.beckmann_alpha(
+                    barbule.along_sigma(
+                        self.constants.block_sigma,
+                        self.constants.rod_length_nm,
+                        SAMPLING_WAVELENGTH_NM,
+                    )
+                )
+            )
+            lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
+            sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+            self.m_components = [
+                mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.Anisotropic | sided
+                | mi.BSDFFlags.SpatiallyVarying,
+                mi.BSDFFlags.DiffuseReflection | sided | mi.BSDFFlags.SpatiallyVarying,
+            ]
+            self.m_flags = lobes | sided | mi.BSDFFlags.Anisotropic | mi.BSDFFlags.SpatiallyVarying
+
+        # -- per-point material state ------------------------------------------------------
+        def _map(self, name: str, si, active):
+            texture = self.maps[name]
+            if texture is None:
+                return mi.Float(MAP_DEFAULTS[name])
+            return texture.eval_1(si, active)
+
+        def _point(self, si, active):
+            """Barbule-frame rotation (cos, sin), the two stacks and the structural share at ``si``."""
+            grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
+            cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
+            t = dr.clip(self._map("gradation", si, active), 0.0, 1.0)
+            base = mi.UInt32(cls) * 2
+            stacks = []
+            for axis in ("long", "short"):
+                values = []
+                for q in QUANTITIES:
+                    table = self.class_tables[f"{axis}_{q}"]
+                    black = dr.gather(mi.Float, table, base, active)
+                    white = dr.gather(mi.Float, table, base + 1, active)
+                    values.append(dr.fma(white - black, t, black))
+                stacks.append(tuple(values))
+            angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
+            share = dr.clip(self._map("melanin", si, active), 0.0, 1.0)
+            return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share
+
+        @staticmethod
+        def _to_barbule(v, c, s):
+            return mi.Vector3f(c * v.x + s * v.y, -s * v.x + c * v.y, v.z)
+
+        @staticmethod
+        def _from_barbule(v, c, s):
+            return mi.Vector3f(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+
+        def _brdf(self, si, wi, wo, state, active):
+            """Spectral BRDF value (no cosine) for barbule-frame directions."""
+            _, _, long_stack, short_stack, share = state
+            out = []
+            for k in range(len(si.wavelengths)):
+                lam = si.wavelengths[k]
+                albedo = srgb_model_eval(self.melanin_coefficients, lam, self.ops)
+                out.append(
+                    feather_brdf(
+                        self.constants,
+                        self.table,
+                        (wi.x, wi.y, wi.z),
+                        (wo.x, wo.y, wo.z),
+                        lam,
+                        long_stack,
+                        short_stack,
+                        share,
+                        albedo,
+                        self.ops,
+                    )
+                )
+            return mi.Spectrum(out)
+
+        def _lobe_pdf(self, wi, wo, share):
+            """Mixture density of the two sampling strategies (barbule frame, upper hemisphere)."""
+            distr = mi.MicrofacetDistribution(
+                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+            )
+            m = dr.normalize(wi + wo)
+            glossy = distr.pdf(wi, m) / (4.0 * dr.abs(dr.dot(wo, m)))
+            diffuse = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+            pdf = share * dr.select(dr.dot(wo, m) > 0, glossy, 0.0) + (1.0 - share) * diffuse
+            return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
+
+        def _upper(self, si, wo, state):
+            """Both directions in the barbule frame, mirrored to the upper side when lit from below."""
+            c, s = state[0], state[1]
+            sign = dr.select(si.wi.z < 0, -1.0, 1.0)
+            wi = self._to_barbule(si.wi, c, s)
+            wo = self._to_barbule(wo, c, s)
+            return mi.Vector3f(wi.x, wi.y, wi.z * sign), mi.Vector3f(wo.x, wo.y, wo.z * sign)
+
+        # -- Mitsuba BSDF interface ---------------------------------------------------------
+        def eval(self, ctx, si, wo, active=True):
+            state = self._point(si, active)
+            wi_b, wo_b = self._upper(si, wo, state)
+            value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
+            return dr.select(active & (wi_b.z > 0) & (wo_b.z > 0), value, 0.0)
+
+        def pdf(self, ctx, si, wo, active=True):
+            state = self._point(si, active)
+            wi_b, wo_b = self._upper(si, wo, state)
+            return dr.select(active, self._lobe_pdf(wi_b, wo_b, state[4]), 0.0)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            state = self._point(si, active)
+            wi_b, wo_b = self._upper(si, wo, state)
+            ok = active & (wi_b.z > 0) & (wo_b.z > 0)
+            value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
+            return dr.select(ok, value, 0.0), dr.select(ok, self._lobe_pdf(wi_b, wo_b, state[4]), 0.0)
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            state = self._point(si, active)
+            c, s, share = state[0], state[1], state[4]
+            sign = dr.select(si.wi.z < 0, -1.0, 1.0)
+            wi_b = self._to_barbule(si.wi, c, s)
+            wi_b = mi.Vector3f(wi_b.x, wi_b.y, wi_b.z * sign)
+            distr = mi.MicrofacetDistribution(
+                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+            )
+            glossy = sample1 < share
+            m, _ = distr.sample(wi_b, sample2)
+            wo_glossy = mi.reflect(wi_b, m)
+            wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
+            wo_b = dr.select(glossy, wo_glossy, wo_diffuse)
+            pdf = self._lobe_pdf(wi_b, wo_b, share)
+            value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
+            ok = active & (wi_b.z > 0) & (wo_b.z > 0) & (pdf > 0)
+
+            bs = dr.zeros(mi.BSDFSample3f)
+            wo_local = self._from_barbule(wo_b, c, s)
+            bs.wo = mi.Vector3f(wo_local.x, wo_local.y, wo_local.z * sign)
+            bs.pdf = dr.select(ok, pdf, 0.0)
+            bs.eta = 1.0
+            bs.sampled_type = dr.select(
+                glossy,
+                mi.UInt32(+mi.BSDFFlags.GlossyReflection),
+                mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
+            )
+            bs.sampled_component = dr.select(glossy, mi.UInt32(0), mi.UInt32(1))
+            weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
+            return bs, weight
+
+        def traverse(self, callback):
+            pass
+
+        def to_string(self):
+            return f"FeatherBSDF[classes={self.n_classes}, interference={self.params.interference}]"
+
+    return FeatherBSDF
+
+
+def register() -> None:
+    """Register the ``pavonine_feather`` BSDF with Mitsuba for the active (or default) variant."""
+    backend = select_variant()
+    import mitsuba as mi
+
+    cls = _plugin_class(backend.variant)
+    mi.register_bsdf(PLUGIN_NAME, lambda props: cls(props))
