@@ -144,7 +144,9 @@ def structural_brdf(
     alpha_y = barbule.SQRT2 * math.tan(constants.crescent_sigma)
     d = barbule.beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, ops)
     g = barbule.beckmann_smith_g1(ix, iy, iz, cos_d, alpha_x, alpha_y, ops)
-    g = g * barbule.beckmann_smith_g1(ox, oy, oz, ox * hx + oy * hy + oz * hz, alpha_x, alpha_y, ops)
+    g = g * barbule.beckmann_smith_g1(
+        ox, oy, oz, ox * hx + oy * hy + oz * hz, alpha_x, alpha_y, ops
+    )
     denom = 4.0 * iz * oz
     value = reflectance * d * g / ops.maximum(denom, 1e-12)
     return ops.select((iz > 0.0) & (oz > 0.0), value, 0.0)
@@ -163,7 +165,9 @@ def feather_brdf(
     ops: Any = NUMPY,
 ) -> Any:
     """Full BRDF (1/sr): ``w f_structural + (1 − w) ρ_melanin / π`` (paper §3.3.6), two-sided."""
-    structural = structural_brdf(constants, table, wi, wo, wavelength_nm, long_stack, short_stack, ops)
+    structural = structural_brdf(
+        constants, table, wi, wo, wavelength_nm, long_stack, short_stack, ops
+    )
     same_side = wi[2] * wo[2] > 0.0
     diffuse = ops.select(same_side, melanin_albedo * (1.0 / math.pi), 0.0)
     return structural_share * structural + (1.0 - structural_share) * diffuse
@@ -258,4 +262,6 @@ class FeatherModel:
 def direction(theta_deg: Any, phi_deg: Any) -> np.ndarray:
     """Unit vector(s) at polar angle θ from the vane normal and azimuth φ from the barbule axis."""
     t, p = np.radians(theta_deg), np.radians(phi_deg)
-    return np.stack(np.broadcast_arrays(np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)), -1)
+    return np.stack(
+        np.broadcast_arrays(np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)), -1
+    )

@@ -12,13 +12,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pavonine.materials import colour
+from pavonine.materials import barbule, colour
 from pavonine.materials.barbule import (
     crescent_density,
     orientation_blend,
     rod_gradient_weight,
 )
-from pavonine.materials.brdf import FeatherModel, direction
+from pavonine.materials.brdf import FeatherModel, direction, melanin_albedo
 from pavonine.materials.layers import (
     array_factor,
     fill_factor,
@@ -85,7 +85,9 @@ def check_wavelengths(wavelengths_nm: np.ndarray) -> np.ndarray:
         raise ParameterError("wavelength", "is NaN")
     lo, hi = VALID_WAVELENGTHS_NM
     if np.any((w < lo) | (w > hi)):
-        raise ParameterError("wavelength", f"must lie in {lo:g}–{hi:g} nm, got {w.min():g}–{w.max():g}")
+        raise ParameterError(
+            "wavelength", f"must lie in {lo:g}–{hi:g} nm, got {w.min():g}–{w.max():g}"
+        )
     return w
 
 
@@ -95,7 +97,9 @@ def check_angle(name: str, degrees: float) -> float:
     if math.isnan(value):
         raise ParameterError(name, "is NaN")
     if not -90.0 < value < 90.0:
-        raise ParameterError(name, f"must lie inside the hemisphere (-90, 90) degrees, got {value:g}")
+        raise ParameterError(
+            name, f"must lie inside the hemisphere (-90, 90) degrees, got {value:g}"
+        )
     return value
 
 
@@ -188,7 +192,11 @@ def summarise(
     out = []
     for o, spectrum, sw in zip(observe, plot, swatches, strict=True):
         peak, width = peak_and_width(PLOT_WAVELENGTHS_NM, spectrum)
-        out.append(SpectrumSummary(float(o), peak, width, tuple(float(c) for c in sw), float(spectrum.max())))
+        out.append(
+            SpectrumSummary(
+                float(o), peak, width, tuple(float(c) for c in sw), float(spectrum.max())
+            )
+        )
     return out
 
 
@@ -212,10 +220,11 @@ def directional_albedo(
     model = model_for(params)
     wavelengths = check_wavelengths(wavelengths_nm)
     wi = direction(check_angle("incidence", incidence_deg), azimuth_deg)
-    ax = math.sqrt(2.0) * math.tan(
-        math.hypot(model.constants.block_sigma, 0.376 * wavelengths.max() / model.constants.rod_length_nm)
+    constants = model.constants
+    ax = barbule.beckmann_alpha(
+        barbule.along_sigma(constants.block_sigma, constants.rod_length_nm, wavelengths.max())
     )
-    ay = math.sqrt(2.0) * math.tan(model.constants.crescent_sigma)
+    ay = barbule.beckmann_alpha(constants.crescent_sigma)
     p = np.linspace(-7.0 * ax, 7.0 * ax, n_slopes)
     q = np.linspace(-7.0 * ay, 7.0 * ay, n_slopes)
     pp, qq = np.meshgrid(p, q, indexing="ij")
@@ -224,11 +233,15 @@ def directional_albedo(
     i_dot_h = h @ wi
     wo = 2.0 * i_dot_h[..., None] * h - wi
     jac = 4.0 * np.clip(i_dot_h, 0, None) * h[..., 2] ** 3 * (p[1] - p[0]) * (q[1] - q[0])
-    f = model.structural(wo[..., None, :] * 0 + wi, wo[..., None, :], wavelengths, ocellar_class, gradation)
+    f = model.structural(
+        np.broadcast_to(wi, wo.shape)[..., None, :],
+        wo[..., None, :],
+        wavelengths,
+        ocellar_class,
+        gradation,
+    )
     weight = np.clip(wo[..., 2], 0.0, None) * jac
     structural = np.einsum("ijk,ij->k", f, weight)
-    from pavonine.materials.brdf import melanin_albedo
-
     return structural_share * structural + (1.0 - structural_share) * melanin_albedo(
         params.melanin_color, wavelengths
     )

@@ -37,7 +37,7 @@ def check_finite_positive(name: str, value: float) -> None:
     if math.isnan(value):
         raise ParameterError(name, "is NaN")
     if not math.isfinite(value) or value <= 0:
-        raise ParameterError(name, f"must be positive and finite, got {value}")
+        raise ParameterError(name, f"must be positive and finite, got {value:.6g}")
 
 
 @dataclass(frozen=True)
@@ -62,7 +62,7 @@ class LayerStack:
         check_finite_positive(f"{name}.radius", self.radius)
         check_finite_positive(f"{name}.count", self.count)
         if self.count < 1:
-            raise ParameterError(f"{name}.count", f"must be >= 1 layer, got {self.count}")
+            raise ParameterError(f"{name}.count", f"must be >= 1 layer, got {self.count:.6g}")
         if math.pi * self.radius > 2.0 * self.interval * (1.0 + 1e-6):
             raise ParameterError(
                 f"{name}.radius",
@@ -242,7 +242,9 @@ def preset(name: str) -> FeatherParameters:
     try:
         return PRESETS[name]
     except KeyError:
-        raise ParameterError("preset", f"unknown preset {name!r}; known: {sorted(PRESETS)}") from None
+        raise ParameterError(
+            "preset", f"unknown preset {name!r}; known: {sorted(PRESETS)}"
+        ) from None
 
 
 def uniform_parameters(

@@ -63,7 +63,9 @@ def efficiencies(x: float, coefficients: np.ndarray) -> tuple[float, float]:
 def unpolarised_intensity(x: float, m: complex, scattering_angle: np.ndarray) -> np.ndarray:
     """``|T(Θ)|²`` averaged over TE and TM: the intensity pattern of Eq. 2 for natural light."""
     a, b = cylinder_coefficients(x, m, n_max_for(x))
-    return 0.5 * (np.abs(amplitude(a, scattering_angle)) ** 2 + np.abs(amplitude(b, scattering_angle)) ** 2)
+    return 0.5 * (
+        np.abs(amplitude(a, scattering_angle)) ** 2 + np.abs(amplitude(b, scattering_angle)) ** 2
+    )
 
 
 def row_reflectance(x: float, m: complex, cos_theta: np.ndarray) -> np.ndarray:

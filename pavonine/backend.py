@@ -90,7 +90,9 @@ def select_variant(preferred: str | None = None) -> Backend:
 
     lib = find_libllvm()
     if wanted.startswith("llvm_") and lib is None:
-        fallback = "scalar_" + wanted.split("_", 2)[-1] if wanted.count("_") >= 2 else FALLBACK_VARIANT
+        fallback = (
+            "scalar_" + wanted.split("_", 2)[-1] if wanted.count("_") >= 2 else FALLBACK_VARIANT
+        )
         warnings.warn(
             f"pavonine: no shared libLLVM >= {MIN_LLVM_MAJOR} found (install Debian's libllvm19 or set "
             f"DRJIT_LIBLLVM_PATH); falling back to the slow '{fallback}' Mitsuba variant",

@@ -18,6 +18,8 @@ COMMANDS: dict[str, str] = {
     "doctor": "pavonine.pipeline.cmd_doctor:doctor",
     "spectra": "pavonine.pipeline.cmd_spectra:spectra",
     "figures": "pavonine.pipeline.cmd_figures:figures",
+    "validate": "pavonine.pipeline.cmd_validate:validate",
+    "env": "pavonine.pipeline.cmd_env:env",
     "compare": "pavonine.pipeline.cmd_compare:compare",
     "baseline": "pavonine.pipeline.cmd_baseline:baseline",
     "check-renders": "pavonine.pipeline.cmd_check_renders:check_renders",

@@ -66,7 +66,9 @@ def decode_parameters(props) -> FeatherParameters:
     """Inverse of :func:`encode_parameters` (from a ``mi.Properties`` or a dict)."""
     n = int(props["n_classes"])
     arrays = {
-        f"{axis}_{q}": np.array([float(v) for v in str(props[f"{axis}_{q}"]).split(",")]).reshape(n, 2)
+        f"{axis}_{q}": np.array([float(v) for v in str(props[f"{axis}_{q}"]).split(",")]).reshape(
+            n, 2
+        )
         for axis in ("long", "short")
         for q in QUANTITIES
     }
@@ -116,6 +118,35 @@ def feather_bsdf_dict(
     return bsdf
 
 
+def class_tables(params: FeatherParameters) -> dict:
+    """Per-class (black, white) stack tables as Dr.Jit arrays, lengths in nm: ``{axis}_{quantity}``."""
+    import mitsuba as mi
+
+    scale = {"interval": UM_TO_NM, "radius": UM_TO_NM, "count": 1.0}
+    return {
+        key: mi.Float((value * scale[key.split("_")[1]]).ravel())
+        for key, value in params.class_arrays().items()
+    }
+
+
+def gather_stacks(tables: dict, ocellar_class, gradation, active=True) -> list[tuple]:
+    """``[long, short]`` stacks ``(interval_nm, radius_nm, count)`` per lane: Table 1 lerped by gradation."""
+    import drjit as dr
+    import mitsuba as mi
+
+    base = mi.UInt32(ocellar_class) * 2
+    stacks = []
+    for axis in ("long", "short"):
+        values = []
+        for q in QUANTITIES:
+            table = tables[f"{axis}_{q}"]
+            black = dr.gather(mi.Float, table, base, active)
+            white = dr.gather(mi.Float, table, base + 1, active)
+            values.append(dr.fma(white - black, gradation, black))
+        stacks.append(tuple(values))
+    return stacks
+
+
 @functools.cache
 def _plugin_class(variant: str):
     """Define the BSDF class for the active variant (Mitsuba classes are per variant)."""
@@ -134,12 +165,7 @@ def _plugin_class(variant: str):
             self.constants = MaterialConstants.from_parameters(self.params)
             table = RowTable.build(complex(self.params.melanin_index / self.params.medium_index))
             self.table = RowTable(mi.Float(table.values), table.x_max, table.n_x, table.n_cos)
-            arrays = self.params.class_arrays()
-            scale = {"interval": UM_TO_NM, "radius": UM_TO_NM, "count": 1.0}
-            self.class_tables = {
-                key: mi.Float((value * scale[key.split("_")[1]]).ravel())
-                for key, value in arrays.items()
-            }
+            self.class_tables = class_tables(self.params)
             self.n_classes = len(self.params.classes)
             self.maps = {name: props.get(name, None) for name in DATA_MAPS}
             self.melanin_coefficients = [
@@ -158,7 +184,9 @@ def _plugin_class(variant: str):
             lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
             sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
             self.m_components = [
-                mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.Anisotropic | sided
+                mi.BSDFFlags.GlossyReflection
+                | mi.BSDFFlags.Anisotropic
+                | sided
                 | mi.BSDFFlags.SpatiallyVarying,
                 mi.BSDFFlags.DiffuseReflection | sided | mi.BSDFFlags.SpatiallyVarying,
             ]
@@ -176,16 +204,7 @@ def _plugin_class(variant: str):
             grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
             cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
             t = dr.clip(self._map("gradation", si, active), 0.0, 1.0)
-            base = mi.UInt32(cls) * 2
-            stacks = []
-            for axis in ("long", "short"):
-                values = []
-                for q in QUANTITIES:
-                    table = self.class_tables[f"{axis}_{q}"]
-                    black = dr.gather(mi.Float, table, base, active)
-                    white = dr.gather(mi.Float, table, base + 1, active)
-                    values.append(dr.fma(white - black, t, black))
-                stacks.append(tuple(values))
+            stacks = gather_stacks(self.class_tables, cls, t, active)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
             share = dr.clip(self._map("melanin", si, active), 0.0, 1.0)
             return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share
@@ -257,7 +276,9 @@ def _plugin_class(variant: str):
             wi_b, wo_b = self._upper(si, wo, state)
             ok = active & (wi_b.z > 0) & (wo_b.z > 0)
             value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
-            return dr.select(ok, value, 0.0), dr.select(ok, self._lobe_pdf(wi_b, wo_b, state[4]), 0.0)
+            return dr.select(ok, value, 0.0), dr.select(
+                ok, self._lobe_pdf(wi_b, wo_b, state[4]), 0.0
+            )
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             state = self._point(si, active)

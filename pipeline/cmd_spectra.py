@@ -1,0 +1,192 @@
+"""``pavonine spectra``: reflectance spectra, peaks and colours of a feather material."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import click
+
+from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
+
+
+def _angles(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise InputError(
+            "--observe", f"expected degrees separated by commas, got {text!r}"
+        ) from None
+    if not values:
+        raise InputError("--observe", "needs at least one angle")
+    return values
+
+
+def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, interference):
+    """The material and class selected by the command-line options."""
+    from pavonine.materials.parameters import preset, uniform_parameters
+
+    explicit = [v is not None for v in (interval, radius, layers)]
+    if any(explicit):
+        if not all(explicit):
+            raise InputError("--interval/--radius/--layers", "give all three together")
+        for name, value in (("--interval", interval), ("--radius", radius), ("--layers", layers)):
+            if math.isnan(value):
+                raise InputError(name, "is NaN")
+        params = uniform_parameters(interval / 1000.0, radius / 1000.0, layers)
+        label = f"d{interval:g}_a{radius:g}_n{layers:g}"
+    else:
+        params = preset(preset_name)
+        label = preset_name
+    if interference:
+        params = params.with_(interference=interference)
+    params.validate()
+    if ocellar_class is not None:
+        params.stacks(ocellar_class, 0.0)
+        label += f"_class{ocellar_class}"
+    return params, label
+
+
+@click.command()
+@click.option(
+    "--preset",
+    "preset_name",
+    default="paper-table1",
+    show_default=True,
+    help="paper-table1, yellow or blue.",
+)
+@click.option(
+    "--class",
+    "ocellar_class",
+    type=int,
+    default=None,
+    help="Ocellar class of the preset (0 = white … 5 = black).",
+)
+@click.option(
+    "--gradation", type=float, default=0.0, show_default=True, help="0 = black end, 1 = white end."
+)
+@click.option(
+    "--interval", type=float, default=None, help="Layer interval d in nm (with --radius, --layers)."
+)
+@click.option("--radius", type=float, default=None, help="Rod radius a in nm.")
+@click.option("--layers", type=float, default=None, help="Number of layers N_d.")
+@click.option(
+    "--interference",
+    type=click.Choice(["paper", "intensity"]),
+    default=None,
+    help="Eq. 3/4 as printed (|Σ|/N) or intensity (|Σ|²/N²).",
+)
+@click.option(
+    "--incidence",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Incidence angle (degrees from the vane normal).",
+)
+@click.option(
+    "--observe",
+    default="15,25,35,45,55,65,75,85",
+    show_default=True,
+    help="Observation angles, degrees, comma-separated (specular side).",
+)
+@click.option(
+    "--azimuth",
+    type=float,
+    default=90.0,
+    show_default=True,
+    help="Plane of incidence, degrees from the barbule's long axis (90 = across).",
+)
+@click.option(
+    "--structural-share", type=float, default=1.0, show_default=True, help="Melanin map value."
+)
+@click.option(
+    "-o",
+    "--output-dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/spectra"),
+    show_default=True,
+    help="Where the PNG and CSV go.",
+)
+@click.option(
+    "--json",
+    "json_target",
+    default=None,
+    metavar="FILE|-",
+    help="Write the summary as JSON ('-' = stdout).",
+)
+@one_line_errors
+def spectra(
+    preset_name,
+    ocellar_class,
+    gradation,
+    interval,
+    radius,
+    layers,
+    interference,
+    incidence,
+    observe,
+    azimuth,
+    structural_share,
+    output_dir,
+    json_target,
+):
+    """Reflectance spectra (380–780 nm) per observation angle: PNG (paper Fig. 5 layout), CSV, table."""
+    from pavonine.materials import optics, plots
+
+    params, label = resolve_parameters(
+        preset_name, ocellar_class, interval, radius, layers, interference
+    )
+    observe_deg = _angles(observe)
+    for name, value in (("--gradation", gradation), ("--structural-share", structural_share)):
+        if not 0.0 <= value <= 1.0:
+            raise InputError(name, f"must lie in [0, 1], got {value}")
+    kwargs = dict(
+        ocellar_class=ocellar_class or 0,
+        gradation=gradation,
+        azimuth_deg=azimuth,
+        structural_share=structural_share,
+    )
+    curves = optics.reflectance_spectra(params, incidence, observe_deg, **kwargs)
+
+    png = output_dir / f"spectra_{label}.png"
+    csv_path = output_dir / f"spectra_{label}.csv"
+    with atomic_path(png) as tmp_png, atomic_path(csv_path) as tmp_csv:
+        summaries = plots.figure5(tmp_png, params, label, incidence, observe_deg, **kwargs)
+        with open(tmp_csv, "w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(["wavelength_nm", *[f"observe_{o:g}deg" for o in observe_deg]])
+            for i, lam in enumerate(optics.PLOT_WAVELENGTHS_NM):
+                writer.writerow([f"{lam:g}", *[f"{c[i]:.6g}" for c in curves]])
+
+    summary = [s.as_json() for s in summaries]
+    if json_target == "-":
+        click.echo(json.dumps(summary, indent=2))
+        return
+    if json_target:
+        with atomic_path(json_target) as tmp:
+            tmp.write_text(json.dumps(summary, indent=2))
+    _print_table(label, incidence, summaries, sys.stdout.isatty())
+    click.echo(f"wrote {png} and {csv_path}")
+
+
+def _print_table(label, incidence, summaries, colour: bool) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{label}, incidence {incidence:g}°")
+    for column in ("observe", "peak (nm)", "FWHM (nm)", "sRGB", "colour"):
+        table.add_column(column, justify="right")
+    for s in summaries:
+        r, g, b = (round(255 * c) for c in s.srgb)
+        width = "—" if s.fwhm_nm is None else f"{s.fwhm_nm:.1f}"
+        table.add_row(
+            f"{s.observe_deg:g}°",
+            f"{s.peak_nm:.1f}",
+            width,
+            f"#{r:02x}{g:02x}{b:02x}",
+            f"[on #{r:02x}{g:02x}{b:02x}]      [/]",
+        )
+    Console(force_terminal=colour, width=100).print(table)

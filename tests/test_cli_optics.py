@@ -1,0 +1,108 @@
+"""``pavonine spectra``, ``figures`` and ``doctor`` from the command line."""
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from pavonine.pipeline.cli import cli
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+def test_spectra_writes_plot_csv_and_table(runner, tmp_path):
+    result = runner.invoke(cli, ["spectra", "--preset", "yellow", "-o", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    png, csv = tmp_path / "spectra_yellow.png", tmp_path / "spectra_yellow.csv"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = csv.read_text().splitlines()
+    assert rows[0].startswith("wavelength_nm,observe_15deg") and len(rows) == 1 + 401
+    assert "peak (nm)" in result.output
+
+
+def test_spectra_json_summary(runner, tmp_path):
+    result = runner.invoke(
+        cli,
+        ["spectra", "--preset", "blue", "--observe", "10,40", "--json", "-", "-o", str(tmp_path)],
+    )
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert [s["observe_deg"] for s in summary] == [10.0, 40.0]
+    assert set(summary[0]) == {"observe_deg", "peak_nm", "fwhm_nm", "srgb"}
+    assert summary[0]["peak_nm"] > summary[1]["peak_nm"]
+    assert 480 < summary[0]["peak_nm"] < 530
+
+
+def test_spectra_explicit_structure_and_class(runner, tmp_path):
+    explicit = runner.invoke(
+        cli,
+        [
+            "spectra",
+            "--interval",
+            "190",
+            "--radius",
+            "70",
+            "--layers",
+            "4",
+            "--observe",
+            "0",
+            "--json",
+            "-",
+            "-o",
+            str(tmp_path),
+        ],
+    )
+    assert explicit.exit_code == 0, explicit.output
+    assert abs(json.loads(explicit.output)[0]["peak_nm"] - 600) < 15
+    by_class = runner.invoke(
+        cli, ["spectra", "--class", "3", "--gradation", "1", "--json", "-", "-o", str(tmp_path)]
+    )
+    assert by_class.exit_code == 0, by_class.output
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--interval", "150", "--radius", "-65", "--layers", "10"], "radius"),
+        (["--interval", "100", "--radius", "70", "--layers", "4"], "rods overlap"),
+        (["--interval", "150", "--radius", "65", "--layers", "0"], "count"),
+        (["--interval", "nan", "--radius", "65", "--layers", "4"], "--interval: is NaN"),
+        (["--observe", "95"], "observe"),
+        (["--incidence", "nan"], "incidence: is NaN"),
+        (["--class", "9"], "unknown class 9"),
+        (["--preset", "green"], "unknown preset"),
+    ],
+)
+def test_spectra_bad_input_is_one_line_exit_2_and_writes_nothing(runner, tmp_path, args, needle):
+    out = tmp_path / "out"
+    result = runner.invoke(cli, ["spectra", *args, "-o", str(out)])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:") and needle in lines[0]
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_figures(runner, tmp_path):
+    result = runner.invoke(cli, ["figures", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == [
+        "fig10_crescent.png",
+        "fig5_blue.png",
+        "fig5_yellow.png",
+        "fig7_rod_rows.png",
+        "table1_swatches.png",
+    ]
+
+
+def test_doctor_reports_variant_and_versions(runner):
+    result = runner.invoke(cli, ["doctor", "--json"])
+    assert result.exit_code == 0, result.output
+    info = json.loads(result.output)
+    assert info["variant"].endswith("spectral")
+    assert info["packages"]["usd-core"] and info["packages"]["Mitsuba"]
+    if info["variant"].startswith("llvm"):
+        assert info["llvm_major"] >= 16
