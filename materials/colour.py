@@ -108,3 +108,33 @@ def swatch(linear_rgb: np.ndarray) -> np.ndarray:
     peak = np.max(rgb, axis=-1, keepdims=True)
     rgb = np.where(peak > 1.0, rgb / np.where(peak > 0, peak, 1.0), rgb)
     return display_encode(rgb)
+
+
+def xyz_to_lab(xyz: np.ndarray, white: np.ndarray | None = None) -> np.ndarray:
+    """CIE 1976 L*a*b* (CIE 15:2004 §8.2.1) relative to ``white`` (default: D65 with Y = 1)."""
+    if white is None:
+        white = xyz_to_linear_srgb_inverse(np.ones(3))
+    t = np.asarray(xyz, dtype=np.float64) / np.asarray(white, dtype=np.float64)
+    delta = 6.0 / 29.0
+    f = np.where(t > delta**3, np.cbrt(t), t / (3 * delta**2) + 4.0 / 29.0)
+    return np.stack(
+        [
+            116.0 * f[..., 1] - 16.0,
+            500.0 * (f[..., 0] - f[..., 1]),
+            200.0 * (f[..., 1] - f[..., 2]),
+        ],
+        -1,
+    )
+
+
+def xyz_to_linear_srgb_inverse(linear_rgb: np.ndarray) -> np.ndarray:
+    """Linear Rec.709 → XYZ (inverse of :func:`xyz_to_linear_srgb`)."""
+    _, _, _, matrix = _mitsuba_tables()
+    return np.asarray(linear_rgb, dtype=np.float64) @ np.linalg.inv(matrix).T
+
+
+def delta_e76(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
+    """CIE 1976 colour difference ΔE*ab between two scene-linear Rec.709 colours."""
+    lab_a = xyz_to_lab(xyz_to_linear_srgb_inverse(rgb_a))
+    lab_b = xyz_to_lab(xyz_to_linear_srgb_inverse(rgb_b))
+    return np.linalg.norm(lab_a - lab_b, axis=-1)
