@@ -18,6 +18,7 @@ COMMANDS: dict[str, str] = {
     "doctor": "pavonine.pipeline.cmd_doctor:doctor",
     "spectra": "pavonine.pipeline.cmd_spectra:spectra",
     "figures": "pavonine.pipeline.cmd_figures:figures",
+    "render": "pavonine.pipeline.cmd_render:render",
     "validate": "pavonine.pipeline.cmd_validate:validate",
     "env": "pavonine.pipeline.cmd_env:env",
     "compare": "pavonine.pipeline.cmd_compare:compare",

@@ -1,0 +1,309 @@
+"""Author and read feather materials: ``PavonineFeatherAPI`` on a ``UsdShade.Material``.
+
+The schema attributes are the one source of truth. The MaterialX shader
+(``outputs:mtlx:surface`` → ``ND_pavonine_feather_surfaceshader``) and the ``UsdPreviewSurface``
+fallback (``outputs:surface``) are derived from them by :func:`create_feather_material` /
+:func:`sync_derived_shaders`; ``pavonine validate`` reports them when they have drifted.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from pxr import Gf, Sdf, Usd, UsdShade
+
+from pavonine.materials import materialx
+from pavonine.materials.parameters import AXES, FeatherParameters, ParameterError
+from pavonine.schemas.plugin import SCHEMA_NAME, require_schema
+
+#: Map keys (as used by the converter and ``resolve_maps``) -> schema attribute.
+MAP_ATTRS: dict[str, str] = {
+    "alpha": "pavonine:alphaMap",
+    "ocellar": "pavonine:ocellarMap",
+    "gradation": "pavonine:gradationMap",
+    "angle": "pavonine:angleMap",
+    "displacement": "pavonine:displacementMap",
+    "melanin": "pavonine:melaninMap",
+}
+
+#: (axis, LayerStack field) -> (schema attribute, value type).
+CLASS_ATTRS: dict[tuple[str, str], tuple[str, Sdf.ValueTypeName]] = {
+    (axis, field): (f"pavonine:{axis}:{name}", vtype)
+    for axis in AXES
+    for field, name, vtype in (
+        ("interval", "layerInterval", Sdf.ValueTypeNames.Float2Array),
+        ("radius", "rodRadius", Sdf.ValueTypeNames.Float2Array),
+        ("count", "layerCount", Sdf.ValueTypeNames.Int2Array),
+    )
+}
+
+#: FeatherParameters scalar field -> (schema attribute, value type).
+SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
+    "melanin_index": ("pavonine:melaninIndex", Sdf.ValueTypeNames.Float),
+    "medium_index": ("pavonine:mediumIndex", Sdf.ValueTypeNames.Float),
+    "crescent_sigma_deg": ("pavonine:crescentSigma", Sdf.ValueTypeNames.Float),
+    "block_sigma_deg": ("pavonine:blockSigma", Sdf.ValueTypeNames.Float),
+    "rod_length_um": ("pavonine:rodLength", Sdf.ValueTypeNames.Float),
+    "interference": ("pavonine:interference", Sdf.ValueTypeNames.Token),
+    "melanin_color": ("pavonine:melaninColor", Sdf.ValueTypeNames.Color3f),
+}
+
+MTLX_SHADER = "FeatherMtlx"
+PREVIEW_SHADER = "PreviewSurface"
+ALPHA_TEXTURE = "AlphaTexture"
+TEXCOORD_READER = "TexCoordReader"
+MTLX_RENDER_CONTEXT = "mtlx"
+#: Class and gradation the preview colour is evaluated at (missing maps mean class 0, and the
+#: middle of the gradation range is the class's typical colour).
+PREVIEW_CLASS = 0
+PREVIEW_GRADATION = 0.5
+
+
+@dataclass(frozen=True)
+class DerivedValues:
+    """Everything the bound shaders carry, derived from the schema attributes."""
+
+    mtlx_inputs: dict[str, object]
+    diffuse_color: tuple[float, float, float]
+    roughness: float
+
+
+def _as_prim(material: Usd.Prim | UsdShade.Material) -> Usd.Prim:
+    prim = material.GetPrim() if isinstance(material, UsdShade.Material) else material
+    if not prim or not prim.IsValid():
+        raise ValueError(f"not a valid prim: {material!r}")
+    return prim
+
+
+def _check_counts(params: FeatherParameters) -> None:
+    for i, cls in enumerate(params.classes):
+        for axis in AXES:
+            for end, stack in zip(("black", "white"), getattr(cls, axis), strict=True):
+                if float(stack.count) != int(stack.count):
+                    raise ParameterError(
+                        f"class[{i}].{axis}.{end}.count",
+                        f"USD stores whole layer counts (int2), got {stack.count}",
+                    )
+
+
+def author_parameters(prim: Usd.Prim, params: FeatherParameters) -> None:
+    """Write every schema attribute of ``params`` on ``prim`` (explicitly, so that the values
+    survive in tools that do not know the schema)."""
+    arrays = params.class_arrays()
+    for (axis, field), (name, vtype) in CLASS_ATTRS.items():
+        rows = arrays[f"{axis}_{field}"]
+        if vtype == Sdf.ValueTypeNames.Int2Array:
+            value = [Gf.Vec2i(int(b), int(w)) for b, w in rows]
+        else:
+            value = [Gf.Vec2f(float(b), float(w)) for b, w in rows]
+        prim.CreateAttribute(name, vtype, custom=False).Set(value)
+    for field, (name, vtype) in SCALAR_ATTRS.items():
+        value = getattr(params, field)
+        if vtype == Sdf.ValueTypeNames.Color3f:
+            value = Gf.Vec3f(*value)
+        attr = prim.CreateAttribute(name, vtype, custom=False, variability=_variability(name))
+        attr.Set(value)
+
+
+def _variability(name: str) -> Sdf.Variability:
+    return Sdf.VariabilityUniform if name == "pavonine:interference" else Sdf.VariabilityVarying
+
+
+def author_maps(prim: Usd.Prim, maps: Mapping[str, str]) -> None:
+    """Set the map asset paths (as given, typically ``./maps/x.png``), read as raw data."""
+    unknown = sorted(set(maps) - set(MAP_ATTRS))
+    if unknown:
+        raise ParameterError("maps", f"unknown map kind(s) {unknown}; known: {sorted(MAP_ATTRS)}")
+    for key, path in maps.items():
+        if path is None:
+            continue
+        attr = prim.CreateAttribute(MAP_ATTRS[key], Sdf.ValueTypeNames.Asset, custom=False)
+        attr.Set(Sdf.AssetPath(str(path)))
+        attr.SetColorSpace("raw")
+
+
+def create_feather_material(
+    stage: Usd.Stage,
+    path: str | Sdf.Path,
+    params: FeatherParameters,
+    maps: Mapping[str, str] | None = None,
+) -> UsdShade.Material:
+    """Define a Material at ``path`` with ``PavonineFeatherAPI``, ``params`` and ``maps``, plus the
+    derived MaterialX (``outputs:mtlx:surface``) and UsdPreviewSurface (``outputs:surface``) shaders.
+
+    Raises :class:`ParameterError` for unphysical parameters or unknown map kinds.
+    """
+    require_schema()
+    params.validate()
+    _check_counts(params)
+    material = UsdShade.Material.Define(stage, Sdf.Path(str(path)))
+    prim = material.GetPrim()
+    if not prim.ApplyAPI(SCHEMA_NAME):
+        raise ParameterError("path", f"cannot apply {SCHEMA_NAME} to {prim.GetPath()}")
+    author_parameters(prim, params)
+    author_maps(prim, dict(maps or {}))
+    sync_derived_shaders(material)
+    return material
+
+
+def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherParameters:
+    """The ``FeatherParameters`` a material carries (authored values, else schema fallbacks).
+
+    Raises :class:`ParameterError` naming the attribute when arrays are missing or disagree.
+    Values are not checked for physical sense (``.validate()`` does that).
+    """
+    prim = _as_prim(material)
+    arrays: dict[str, list] = {}
+    lengths: dict[str, int] = {}
+    for (axis, field), (name, _vtype) in CLASS_ATTRS.items():
+        value = prim.GetAttribute(name).Get() if prim.HasAttribute(name) else None
+        if value is None:
+            raise ParameterError(name, f"no value (is {SCHEMA_NAME} applied and known to USD?)")
+        rows = [(float(v[0]), float(v[1])) for v in value]
+        arrays[f"{axis}_{field}"] = rows
+        lengths[name] = len(rows)
+    if len(set(lengths.values())) != 1 or not next(iter(lengths.values())):
+        detail = ", ".join(f"{n}={k}" for n, k in lengths.items())
+        raise ParameterError(
+            "pavonine:long:layerInterval", f"per-class arrays must be equal and >= 1 long: {detail}"
+        )
+    scalars: dict[str, object] = {}
+    for field, (name, _vtype) in SCALAR_ATTRS.items():
+        value = prim.GetAttribute(name).Get() if prim.HasAttribute(name) else None
+        if value is None:
+            raise ParameterError(name, f"no value (is {SCHEMA_NAME} applied and known to USD?)")
+        if field == "melanin_color":
+            value = tuple(float(c) for c in value)
+        elif field == "interference":
+            value = str(value)
+        else:
+            value = float(value)
+        scalars[field] = value
+    return FeatherParameters.from_class_arrays(arrays, **scalars)
+
+
+def resolve_maps(material: Usd.Prim | UsdShade.Material) -> dict[str, str | None]:
+    """Absolute resolved file paths of the six maps; ``None`` where not authored (= uniform).
+
+    An authored path that does not resolve gives the path anchored to the authoring layer (so
+    that callers can report the missing file by name).
+    """
+    prim = _as_prim(material)
+    out: dict[str, str | None] = {}
+    for key, name in MAP_ATTRS.items():
+        out[key] = _resolved_path(prim.GetAttribute(name)) if prim.HasAttribute(name) else None
+    return out
+
+
+def _resolved_path(attr: Usd.Attribute) -> str | None:
+    value = attr.Get()
+    if value is None or not value.path:
+        return None
+    if value.resolvedPath:
+        return os.path.abspath(value.resolvedPath)
+    return os.path.abspath(anchored_path(attr, value.path))
+
+
+def anchored_path(attr: Usd.Attribute, asset: str) -> str:
+    """``asset`` anchored to the layer that authors ``attr``'s strongest value."""
+    for spec in attr.GetPropertyStack(Usd.TimeCode.Default()):
+        if spec.HasDefaultValue() and spec.layer and not spec.layer.anonymous:
+            return spec.layer.ComputeAbsolutePath(asset)
+    return asset
+
+
+def derived_values(params: FeatherParameters) -> DerivedValues:
+    """The shader values derived from ``params`` (the schema attributes)."""
+    return DerivedValues(
+        mtlx_inputs=materialx.input_values(params),
+        diffuse_color=preview_color(params),
+        roughness=preview_roughness(params),
+    )
+
+
+def preview_color(params: FeatherParameters) -> tuple[float, float, float]:
+    """UsdPreviewSurface diffuse colour: the optics model's D65 colour of class 0 (linear sRGB)."""
+    from pavonine.materials.optics import preview_color as optics_preview_color
+
+    rgb = optics_preview_color(params, ocellar_class=PREVIEW_CLASS, gradation=PREVIEW_GRADATION)
+    return tuple(float(Gf.Vec3f(*rgb)[i]) for i in range(3))  # float32, as stored
+
+
+def preview_roughness(params: FeatherParameters) -> float:
+    """UsdPreviewSurface roughness for the crescent spread σ (Eq. 6).
+
+    GGX α = √2·tan σ for a slope standard deviation tan σ, and UsdPreviewSurface's perceptual
+    roughness r has α = r², so r = √α.
+    """
+    import math
+
+    alpha = math.sqrt(2.0) * math.tan(math.radians(params.crescent_sigma_deg))
+    return float(Gf.Vec2f(min(1.0, math.sqrt(alpha)), 0)[0])
+
+
+def sync_derived_shaders(material: UsdShade.Material) -> None:
+    """(Re)author the MaterialX and UsdPreviewSurface shaders from the schema attributes."""
+    params = read_feather_parameters(material)
+    values = derived_values(params)
+    stage = material.GetPrim().GetStage()
+    base = material.GetPath()
+
+    mtlx = UsdShade.Shader.Define(stage, base.AppendChild(MTLX_SHADER))
+    mtlx.SetShaderId(materialx.NODEDEF)
+    for name, value in values.mtlx_inputs.items():
+        _set_mtlx_input(mtlx, name, value)
+    mtlx_out = mtlx.CreateOutput("out", Sdf.ValueTypeNames.Token)
+    material.CreateSurfaceOutput(MTLX_RENDER_CONTEXT).ConnectToSource(mtlx_out)
+
+    preview = UsdShade.Shader.Define(stage, base.AppendChild(PREVIEW_SHADER))
+    preview.SetShaderId("UsdPreviewSurface")
+    preview.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(
+        Gf.Vec3f(*values.diffuse_color)
+    )
+    preview.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(values.roughness)
+    preview.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    preview.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(materialx.KERATIN_INDEX)
+    alpha_path = material.GetPrim().GetAttribute(MAP_ATTRS["alpha"])
+    alpha = alpha_path.Get() if alpha_path else None
+    opacity = preview.CreateInput("opacity", Sdf.ValueTypeNames.Float)
+    if alpha is not None and alpha.path:
+        reader = UsdShade.Shader.Define(stage, base.AppendChild(TEXCOORD_READER))
+        reader.SetShaderId("UsdPrimvarReader_float2")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+        reader_out = reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+        texture = UsdShade.Shader.Define(stage, base.AppendChild(ALPHA_TEXTURE))
+        texture.SetShaderId("UsdUVTexture")
+        texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(alpha.path))
+        texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+        texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader_out)
+        opacity.ConnectToSource(texture.CreateOutput("r", Sdf.ValueTypeNames.Float))
+    else:
+        opacity.Set(1.0)
+    preview_out = preview.CreateOutput("surface", Sdf.ValueTypeNames.Token)
+    material.CreateSurfaceOutput().ConnectToSource(preview_out)
+
+
+_MTLX_USD_TYPES = {
+    "vector2": Sdf.ValueTypeNames.Float2,
+    "float": Sdf.ValueTypeNames.Float,
+    "integer": Sdf.ValueTypeNames.Int,
+    "string": Sdf.ValueTypeNames.String,
+    "color3": Sdf.ValueTypeNames.Color3f,
+}
+
+
+def mtlx_usd_value(name: str, value: object) -> object:
+    """The USD value a MaterialX nodedef input is authored with."""
+    mtype = materialx.input_type(name)
+    if mtype == "vector2":
+        return Gf.Vec2f(*value)
+    if mtype == "color3":
+        return Gf.Vec3f(*value)
+    return value
+
+
+def _set_mtlx_input(shader: UsdShade.Shader, name: str, value: object) -> None:
+    vtype = _MTLX_USD_TYPES[materialx.input_type(name)]
+    shader.CreateInput(name, vtype).Set(mtlx_usd_value(name, value))

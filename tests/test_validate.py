@@ -1,0 +1,165 @@
+"""``pavonine validate``: USD's validators plus Pavonine's, one line per finding, exit codes."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import pavonine  # noqa: F401
+from pavonine.materials.parameters import preset
+from pavonine.pipeline.cli import cli
+from pavonine.schemas.authoring import create_feather_material
+
+DATA = Path(__file__).resolve().parent / "data" / "schema"
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "schema.md"
+LINE = re.compile(r"^(ERROR|WARNING) (/\S*) (\S+): (.+)$")
+
+
+def run(*args: str):
+    result = CliRunner().invoke(cli, ["validate", *args], catch_exceptions=False)
+    return result.exit_code, result.stdout, result.stderr
+
+
+def write_png(path: Path, channels: int = 1, size: int = 32, colourful: bool = False) -> str:
+    import OpenImageIO as oiio
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pixels = np.tile(np.linspace(0, 1, size, dtype=np.float32)[None, :, None], (size, 1, channels))
+    if colourful:
+        pixels[..., 0] = 1.0 - pixels[..., 0]
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(size, size, channels, "uint8"))
+    out.write_image(pixels)
+    out.close()
+    return str(path)
+
+
+def test_docs_example_validates_clean(tmp_path):
+    block = re.findall(r"```usda\n(.*?)```", DOCS.read_text(), flags=re.S)[0]
+    path = tmp_path / "example.usda"
+    path.write_text(block)
+    code, out, err = run(str(path))
+    assert (code, out) == (0, ""), out + err
+    assert block == (DATA / "minimal_feather.usda").read_text()
+
+
+@pytest.mark.parametrize(
+    ("name", "field", "words"),
+    [
+        ("negative_radius.usda", "pavonine:long:rodRadius", "class 2 black end must be positive"),
+        ("unequal_arrays.usda", "pavonine:short:layerInterval", "has 2 classes"),
+        ("overlapping_rods.usda", "pavonine:long:rodRadius", "rods overlap"),
+        ("missing_map.usda", "pavonine:ocellarMap", "does not exist"),
+        ("not_an_image.usda", "pavonine:gradationMap", "OpenImageIO cannot read"),
+        ("api_on_mesh.usda", "apiSchemas", "can only be applied to a Material"),
+    ],
+)
+def test_bad_assets_exit_1_naming_the_field(name, field, words):
+    code, out, _err = run(str(DATA / name))
+    assert code == 1
+    lines = out.splitlines()
+    assert all(LINE.match(line) for line in lines), out
+    hits = [m for m in map(LINE.match, lines) if m.group(1) == "ERROR" and m.group(3) == field]
+    assert hits and any(words in m.group(4) for m in hits), out
+
+
+@pytest.mark.parametrize(
+    ("name", "parser_words"),
+    [("truncated.usda", "Expected }"), ("broken_syntax.usda", "Expected )")],
+)
+def test_unreadable_usda_exits_2_with_the_parser_message(name, parser_words):
+    code, out, err = run(str(DATA / name))
+    assert code == 2
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"error: {DATA / name}: ") and parser_words in lines[0]
+    assert re.search(rf"{name}:\d+:\d+:", lines[0])  # file:line:column from the parser
+    assert "Traceback" not in err
+
+
+def test_missing_file_exits_2():
+    code, _out, err = run("/nonexistent/feather.usda")
+    assert code == 2 and "no such file" in err
+
+
+def authored_asset(tmp_path: Path, **map_kwargs) -> tuple[Path, object]:
+    from pxr import Usd, UsdGeom
+
+    maps = {
+        key: f"./maps/{key}.png"
+        for key in ("alpha", "ocellar", "gradation", "angle", "displacement", "melanin")
+    }
+    for key in maps:
+        write_png(tmp_path / "maps" / f"{key}.png", **map_kwargs.get(key, {}))
+    stage = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    material = create_feather_material(stage, "/Feather", preset("paper-table1"), maps)
+    stage.SetDefaultPrim(material.GetPrim())
+    stage.GetRootLayer().Save()
+    return tmp_path / "asset.usda", stage
+
+
+def test_authored_asset_with_maps_is_clean_and_json(tmp_path):
+    path, _stage = authored_asset(tmp_path)
+    code, out, err = run(str(path))
+    assert (code, out) == (0, ""), out + err
+    code, out, _ = run("--json", str(path))
+    assert code == 0 and json.loads(out) == {"findings": [], "unreadable": []}
+
+
+def test_drifted_derived_shader_is_an_error(tmp_path):
+    path, stage = authored_asset(tmp_path)
+    stage.GetPrimAtPath("/Feather").GetAttribute("pavonine:crescentSigma").Set(30.0)
+    stage.GetRootLayer().Save()
+    code, out, _ = run("--json", str(path))
+    assert code == 1
+    fields = {
+        (f["path"], f["field"]) for f in json.loads(out)["findings"] if f["severity"] == "ERROR"
+    }
+    assert ("/Feather/FeatherMtlx", "inputs:crescent_sigma") in fields
+    assert ("/Feather/PreviewSurface", "inputs:roughness") in fields
+
+
+def test_colour_map_warns_and_non_raw_colour_space_errors(tmp_path):
+    from pxr import UsdShade
+
+    path, stage = authored_asset(tmp_path, melanin={"channels": 3, "colourful": True})
+    code, out, _ = run(str(path))
+    assert code == 0 and "WARNING /Feather pavonine:melaninMap:" in out
+    UsdShade.Shader(stage.GetPrimAtPath("/Feather/AlphaTexture")).GetInput("sourceColorSpace").Set(
+        "sRGB"
+    )
+    stage.GetPrimAtPath("/Feather").GetAttribute("pavonine:gradationMap").SetColorSpace("sRGB")
+    stage.GetRootLayer().Save()
+    code, out, _ = run(str(path))
+    assert code == 1
+    assert "ERROR /Feather/AlphaTexture inputs:sourceColorSpace:" in out
+    assert "ERROR /Feather pavonine:gradationMap: data map must be read raw" in out
+
+
+def test_several_files_prefix_lines_and_worst_exit_wins(tmp_path):
+    shutil.copy(DATA / "minimal_feather.usda", tmp_path / "good.usda")
+    code, out, _ = run(str(tmp_path / "good.usda"), str(DATA / "negative_radius.usda"))
+    assert code == 1 and out.startswith(f"{DATA / 'negative_radius.usda'}: ERROR /Feather")
+    code, _, _ = run(str(DATA / "negative_radius.usda"), str(DATA / "truncated.usda"))
+    assert code == 2
+
+
+def test_validators_are_registered_through_usd():
+    from pxr import UsdValidation
+
+    from pavonine.schemas.validation import validator_names
+
+    registry = UsdValidation.ValidationRegistry()
+    keyword = {m.name for m in registry.GetValidatorMetadataForKeyword("PavonineValidators")}
+    assert keyword == set(validator_names())
+    validator = registry.GetOrLoadValidatorByName(validator_names()[0])
+    assert list(validator.GetMetadata().GetSchemaTypes()) == ["PavonineFeatherAPI"]
