@@ -1,0 +1,23 @@
+"""Pavonine's reference renderer: a Hydra-style scene delegate from USD stages to Mitsuba 3.
+
+One translator module per USD prim kind (``mesh``, ``instancing``, ``camera``, ``lights``,
+``materials``, ``settings``), a ``delegate`` that walks the stage and hands each prim to its
+translator, and ``api.render_stage`` that renders the result progressively. Nothing here imports
+Mitsuba at module import time except through :func:`pavonine.backend.select_variant`.
+"""
+
+from __future__ import annotations
+
+__all__ = ["RenderResult", "render_stage", "write_exr", "write_png"]
+
+
+def __getattr__(name: str):
+    if name in ("RenderResult", "render_stage"):
+        from pavonine.render import api
+
+        return getattr(api, name)
+    if name in ("write_exr", "write_png"):
+        from pavonine.render import imageio
+
+        return getattr(imageio, name)
+    raise AttributeError(name)

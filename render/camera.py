@@ -1,0 +1,161 @@
+"""``UsdGeom.Camera`` → Mitsuba sensors, and a framing camera for stages without one.
+
+Follows ``GfCamera``: focal length and apertures in tenths of a scene unit (mm when the scene unit
+is cm), aperture offsets shift the view window, ``clippingRange`` → near/far clip, ``fStop`` and
+``focusDistance`` → ``thinlens``, ``orthographic`` projection → Mitsuba ``orthographic``.
+The aperture is conformed to the image's aspect ratio by ``aspectRatioConformPolicy``
+(``expandAperture`` by default, as in ``UsdRenderSettings``).
+
+USD cameras look down their local −Z with +Y up; Mitsuba's look down +Z with +X to the left, so
+the camera frame is turned 180° about Y.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom
+
+from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.xform import to_mitsuba
+
+APERTURE_UNIT = 0.1  # GfCamera: apertures and focal length are in tenths of a scene unit
+TURN_Y = np.diag([-1.0, 1.0, -1.0, 1.0])  # rotate 180° about Y
+DEFAULT_FOV_DEG = 30.0
+
+
+@dataclass
+class Sensor:
+    """A Mitsuba sensor dict (without film/sampler) and its camera-to-world matrix (Mitsuba layout)."""
+
+    sensor: dict
+    to_world: np.ndarray
+    path: str | None
+
+
+def translate_camera(
+    prim: Usd.Prim,
+    world_usd: np.ndarray,
+    time: Usd.TimeCode,
+    resolution: tuple[int, int],
+    pixel_aspect: float,
+    conform: str,
+    diag: Diagnostics,
+) -> Sensor:
+    """A USD camera as a Mitsuba ``perspective``/``thinlens``/``orthographic`` sensor."""
+    where = str(prim.GetPath())
+    camera = UsdGeom.Camera(prim).GetCamera(time)
+    width, height = resolution
+    image_aspect = width * pixel_aspect / height
+    ha, va = camera.horizontalAperture, camera.verticalAperture
+    if ha <= 0 or va <= 0 or camera.focalLength <= 0:
+        raise ValueError(f"{where}: focalLength and apertures must be positive")
+    fit_horizontal = _fits_horizontally(ha / va, image_aspect, conform, where, diag)
+    window_w = ha if fit_horizontal else va * image_aspect
+    window_h = ha / image_aspect if fit_horizontal else va
+    frame = to_mitsuba(_without_scale(world_usd)) @ TURN_Y
+    near, far = camera.clippingRange.min, camera.clippingRange.max
+    sensor: dict = {"near_clip": float(max(near, 1e-6)), "far_clip": float(far)}
+    if camera.projection == Gf.Camera.Orthographic:
+        half = window_w * APERTURE_UNIT / 2.0
+        sensor.update(type="orthographic", to_world=_mi(frame @ np.diag([half, half, 1.0, 1.0])))
+        return Sensor(sensor, frame, where)
+    # Mitsuba's pixels are square: the caller renders round(width · pixelAspectRatio) columns
+    # and resamples them to ``width`` (see api._pixel_aspect_resampler).
+    to_world = frame
+    half_w = window_w / (2.0 * camera.focalLength)
+    sensor.update(
+        type="perspective",
+        fov_axis="x",
+        fov=math.degrees(2.0 * math.atan(half_w)),
+        principal_point_offset_x=float(camera.horizontalApertureOffset / window_w),
+        principal_point_offset_y=float(-camera.verticalApertureOffset / window_h),
+        to_world=_mi(to_world),
+    )
+    if camera.fStop > 0 and camera.focusDistance > 0:
+        sensor["type"] = "thinlens"
+        sensor["aperture_radius"] = camera.focalLength * APERTURE_UNIT / (2.0 * camera.fStop)
+        sensor["focus_distance"] = float(camera.focusDistance)
+        for key in ("principal_point_offset_x", "principal_point_offset_y"):
+            if abs(sensor.pop(key)) > 1e-9:
+                diag.warn(where, "aperture offsets are ignored with depth of field (thinlens)")
+    return Sensor(sensor, to_world, where)
+
+
+def framing_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> Sensor:
+    """A perspective camera that frames ``bounds``; a flat asset is seen face-on, long axis up."""
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
+    center = (lo + hi) / 2.0
+    extent = np.maximum(hi - lo, 1e-9)
+    radius = max(float(np.linalg.norm(extent)) / 2.0, 1e-3)
+    up = np.eye(3)[2 if up_axis == "Z" else 1]
+    thin = int(np.argmin(extent))
+    if extent[thin] < 0.25 * extent.max():
+        view = -np.eye(3)[thin]  # look along the thin axis, from its + side
+        others = [i for i in range(3) if i != thin]
+        up = np.eye(3)[max(others, key=lambda i: extent[i])] if abs(up[thin]) > 0.5 else up
+    else:
+        front = np.array([0.0, 1.0, 0.0]) if up_axis == "Z" else np.array([0.0, 0.0, -1.0])
+        view = front * math.cos(math.radians(20)) - up * math.sin(math.radians(20))
+    fov = DEFAULT_FOV_DEG
+    half = math.radians(fov) / 2.0
+    distance = 1.1 * radius / math.sin(half)
+    origin = center - view * distance
+    to_world = _look_at(origin, center, up)
+    sensor = {
+        "type": "perspective",
+        "fov": fov,
+        "fov_axis": "smaller",
+        "near_clip": float(max(distance - 2 * radius, distance * 1e-3)),
+        "far_clip": float(distance + 4 * radius),
+        "to_world": _mi(to_world),
+    }
+    return Sensor(sensor, to_world, None)
+
+
+def _fits_horizontally(
+    aperture_aspect: float, image_aspect: float, conform: str, where: str, diag: Diagnostics
+) -> bool:
+    if conform == "adjustApertureWidth":
+        return False
+    if conform == "adjustApertureHeight":
+        return True
+    if conform == "cropAperture":
+        return aperture_aspect <= image_aspect
+    if conform not in ("expandAperture", "adjustPixelAspectRatio"):
+        diag.warn(where, f"unknown aspectRatioConformPolicy {conform!r}; using expandAperture")
+    elif conform == "adjustPixelAspectRatio":
+        diag.warn(
+            where,
+            "aspectRatioConformPolicy adjustPixelAspectRatio is not supported; using expandAperture",
+        )
+    return aperture_aspect >= image_aspect
+
+
+def _look_at(origin: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Mitsuba's look_at: columns (left, up, forward, origin)."""
+    forward = target - origin
+    forward /= np.linalg.norm(forward)
+    left = np.cross(up, forward)
+    left /= np.linalg.norm(left)
+    new_up = np.cross(forward, left)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, new_up, forward, origin
+    return m
+
+
+def _without_scale(world_usd: np.ndarray) -> np.ndarray:
+    m = np.array(world_usd, dtype=np.float64)
+    for i in range(3):
+        n = np.linalg.norm(m[i, :3])
+        if n > 0:
+            m[i, :3] /= n
+    return m
+
+
+def _mi(matrix: np.ndarray):
+    import mitsuba as mi
+
+    return mi.ScalarTransform4f(np.asarray(matrix, dtype=np.float64).tolist())

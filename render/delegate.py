@@ -1,0 +1,276 @@
+"""The scene delegate: walks a USD stage at one time code and hands each prim to its translator.
+
+Structure after hdmitsuba's per-prim translators (``mesh``, ``instancing``, ``camera``,
+``lights``, ``materials``), without Hydra: ``StageDelegate.sync()`` returns everything Mitsuba
+needs (shapes, shape groups, instances, emitters, cameras, world bounds). Invisible prims and
+``guide``/``proxy`` purposes are skipped; unsupported prim types give one warning each.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+from pxr import Tf, Usd, UsdGeom, UsdShade
+
+from pavonine.pipeline.errors import InputError
+from pavonine.render import instancing, lights, materials, mesh
+from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.xform import TransformCache
+
+# prims that carry no geometry of their own (their children are still visited)
+STRUCTURAL = {
+    "",
+    "Xform",
+    "Scope",
+    "SkelRoot",
+    "GeomSubset",
+    "RenderSettings",
+    "RenderProduct",
+    "RenderVar",
+    "RenderPass",
+    "Shader",
+    "NodeGraph",
+    "Backdrop",
+}
+PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
+
+
+@dataclass
+class SyncedScene:
+    """The translated stage."""
+
+    shapes: dict[str, object] = field(default_factory=dict)
+    emitters: dict[str, dict] = field(default_factory=dict)
+    cameras: dict[str, Usd.Prim] = field(default_factory=dict)
+    bounds: tuple[np.ndarray, np.ndarray] | None = None
+    up_axis: str = "Y"
+    mesh_count: int = 0
+    instance_count: int = 0
+    feather_materials: int = 0
+
+
+def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
+    """Open a USD stage; a missing or unparsable root layer is an :class:`InputError` (one line)."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputError(path, "no such file")
+    try:
+        stage = Usd.Stage.Open(path)
+    except Tf.ErrorException as exc:
+        raise InputError(path, f"cannot open USD stage: {usd_error_message(exc)}") from None
+    if stage is None:
+        raise InputError(path, "cannot open USD stage")
+    for error in stage.GetCompositionErrors():
+        diag.warn(path, f"composition error: {_first_line(error)}")
+    return stage
+
+
+def render_time(stage: Usd.Stage, time: float | None) -> Usd.TimeCode:
+    """``time`` if given; else the stage's startTimeCode if authored; else the earliest sample."""
+    if time is not None:
+        return Usd.TimeCode(time)
+    if stage.HasAuthoredTimeCodeRange():
+        return Usd.TimeCode(stage.GetStartTimeCode())
+    return Usd.TimeCode.EarliestTime()
+
+
+class StageDelegate:
+    """Translate one stage at one time code."""
+
+    def __init__(self, stage: Usd.Stage, time: Usd.TimeCode, diag: Diagnostics):
+        self.stage = stage
+        self.time = time
+        self.diag = diag
+        self.xforms = TransformCache(time)
+        self.table = instancing.InstanceTable()
+        self._materials: dict[str, materials.MaterialSpec] = {}
+        self._bsdfs: dict[tuple[str, bool], object] = {}
+        self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
+        self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
+
+    def sync(self) -> SyncedScene:
+        """Walk the stage and translate every renderable prim."""
+        light_prims: list[Usd.Prim] = []
+        it = iter(Usd.PrimRange(self.stage.GetPseudoRoot()))
+        for prim in it:
+            if prim.IsPseudoRoot():
+                continue
+            if not self._visible(prim):
+                it.PruneChildren()
+                continue
+            kind = prim.GetTypeName()
+            if prim.IsInstance():
+                instancing.native_instance(prim, self.xforms.world(prim), self.table, self._subtree)
+                it.PruneChildren()
+            elif kind == "Mesh":
+                for i, shape in enumerate(self._mesh(prim, self.xforms.world(prim), world=True)):
+                    self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
+            elif kind == "PointInstancer":
+                instancing.point_instancer(
+                    prim, self.xforms.world(prim), self.time, self.table, self._subtree, self.diag
+                )
+                it.PruneChildren()
+            elif kind == "Camera":
+                self.scene.cameras[str(prim.GetPath())] = prim
+            elif lights.is_light(prim):
+                light_prims.append(prim)
+            elif kind in STRUCTURAL or kind in PRUNED:
+                if kind in PRUNED:
+                    it.PruneChildren()
+            else:
+                self.diag.warn(
+                    str(prim.GetPath()),
+                    f"{kind} prims are not supported by the Mitsuba delegate; skipped",
+                )
+        self.scene.shapes.update(self.table.groups)
+        self.scene.shapes.update(self.table.instances)
+        self.scene.instance_count = len(self.table.instances)
+        boxes = self._bounds + self.table.world_bounds
+        if boxes:
+            self.scene.bounds = (
+                np.min([b[0] for b in boxes], axis=0),
+                np.max([b[1] for b in boxes], axis=0),
+            )
+        center, radius = self.bounding_sphere()
+        for prim in light_prims:
+            entry = lights.translate_light(
+                prim, self.xforms.world(prim), self.time, self.diag, center, radius
+            )
+            if entry is not None:
+                self.scene.emitters[str(prim.GetPath())] = entry
+        self.scene.feather_materials = sum(m.is_feather for m in self._materials.values())
+        return self.scene
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        """Centre and radius of the world bounds (unit sphere at the origin for an empty scene)."""
+        if self.scene.bounds is None:
+            return np.zeros(3), 1.0
+        lo, hi = self.scene.bounds
+        return (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-3)
+
+    # -- translators ---------------------------------------------------------------------------
+
+    def _visible(self, prim: Usd.Prim) -> bool:
+        imageable = UsdGeom.Imageable(prim)
+        if not imageable:
+            return True
+        if imageable.ComputeVisibility(self.time) == UsdGeom.Tokens.invisible:
+            return False
+        return imageable.ComputePurpose() not in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+
+    def _mesh(self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool) -> list:
+        usd_mesh = UsdGeom.Mesh(prim)
+        topology = mesh.read_topology(usd_mesh, self.time, self.diag)
+        if topology is None:
+            return []
+        double_sided = bool(usd_mesh.GetDoubleSidedAttr().Get(self.time))
+        shapes = []
+        for index, (material, mask) in enumerate(
+            mesh.material_groups(usd_mesh, topology, self.time, self.diag)
+        ):
+            spec = self._material(material, prim)
+            name = f"{prim.GetPath()}#{index}"
+            triangles = mesh.build_triangle_mesh(
+                usd_mesh,
+                topology,
+                mask,
+                matrix_usd,
+                spec.uv_primvar,
+                spec.attributes,
+                self.time,
+                self.diag,
+                name,
+            )
+            bsdf = self._bsdf(spec, double_sided)
+            shapes.append(mesh.to_mitsuba_mesh(triangles, bsdf))
+            if world:
+                self._bounds.append(triangles.bounds())
+            else:
+                self._last_bounds.append(triangles.bounds())
+            self.scene.mesh_count += 1
+        return shapes
+
+    def _subtree(self, root: Usd.Prim, relative_to: Usd.Prim) -> tuple[list, tuple | None]:
+        """Meshes under ``root`` (instance proxies included) relative to ``relative_to``."""
+        self._last_bounds: list = []
+        shapes: list = []
+        it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies()))
+        for prim in it:
+            if not self._visible(prim):
+                it.PruneChildren()
+                continue
+            kind = prim.GetTypeName()
+            if kind == "Mesh":
+                matrix = (
+                    np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
+                )
+                shapes.extend(self._mesh(prim, matrix, world=False))
+            elif kind == "PointInstancer":
+                self.diag.warn(
+                    str(prim.GetPath()),
+                    "PointInstancer inside a prototype (nested instancing) is not supported; skipped",
+                )
+                it.PruneChildren()
+            elif kind in PRUNED:
+                it.PruneChildren()
+            elif kind not in STRUCTURAL and kind != "Camera" and not lights.is_light(prim):
+                self.diag.warn(
+                    str(prim.GetPath()),
+                    f"{kind} prims are not supported by the Mitsuba delegate; skipped",
+                )
+        boxes = self._last_bounds
+        bounds = (
+            (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
+            if boxes
+            else None
+        )
+        return shapes, bounds
+
+    def _material(
+        self, material: UsdShade.Material | None, prim: Usd.Prim
+    ) -> materials.MaterialSpec:
+        if material is None:
+            return materials.default_material(materials.display_color(prim, self.time))
+        key = str(material.GetPath())
+        if key not in self._materials:
+            self._materials[key] = materials.translate_material(material, self.time, self.diag)
+        return self._materials[key]
+
+    def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool):
+        import mitsuba as mi
+
+        wrap = double_sided and not spec.two_sided
+        key = (spec.key, wrap)
+        if key not in self._bsdfs:
+            bsdf = spec.bsdf
+            if wrap:
+                bsdf = {"type": "twosided", "bsdf": bsdf}
+            try:
+                self._bsdfs[key] = mi.load_dict(bsdf)
+            except Exception as exc:
+                self.diag.warn(
+                    spec.key,
+                    f"Mitsuba rejected the material ({_first_line(exc)}); rendering grey diffuse",
+                )
+                self._bsdfs[key] = mi.load_dict(materials.default_material().bsdf)
+        return self._bsdfs[key]
+
+
+def usd_error_message(exc: object) -> str:
+    """The first diagnostic of a ``Tf.ErrorException`` on one line, without C++ namespaces."""
+    text = str(exc)
+    quoted = re.findall(r" : '(.*?)'\s*(?:\n|$)", text, flags=re.S)
+    message = (quoted[0] if quoted else _first_line(exc)).strip()
+    message = re.sub(r"pxrInternal_v\w+?__pxrReserved__::", "", message)
+    return " ".join(message.split())
+
+
+def _first_line(exc: object) -> str:
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    for line in lines:
+        if "Error" not in line[:12] or len(lines) == 1:
+            return line
+    return lines[0] if lines else type(exc).__name__

@@ -1,0 +1,136 @@
+"""``pavonine render``: outputs, defaults for bare assets, bad stages, determinism, moments."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from pavonine.pipeline.cli import cli
+from pavonine.render.api import render_stage
+from pavonine.render.diagnostics import StageWarning
+from pavonine.render.imageio import read_exr
+
+DATA = Path(__file__).parent / "data" / "render"
+SCENE = Path(__file__).parents[1] / "assets" / "scenes" / "eye_feather_sun.usda"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, ["render", *map(str, args)])
+
+
+def quiet_render(path, **kwargs):
+    kwargs.setdefault("progress", False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        return render_stage(path, **kwargs)
+
+
+@pytest.mark.render
+def test_bare_asset_gets_framing_camera_sun_and_sky(tmp_path):
+    out = tmp_path / "bare.exr"
+    result = run(
+        DATA / "bare_quad.usda", "-o", out, "--png", "--spp", 8, "--resolution", "32x32", "-q"
+    )
+    assert result.exit_code == 0, result.output
+    pixels, attrs = read_exr(out)
+    assert pixels.shape == (32, 32, 3)
+    assert attrs["oiio:ColorSpace"] == "lin_rec709_scene"
+    assert attrs["pavonine:spp"] == 8 and attrs["pavonine:camera"] == "(framing camera)"
+    centre = pixels[12:20, 12:20].mean()
+    corner = pixels[:3, :3].mean()
+    assert centre > 0.1 and centre > 2 * corner  # the quad fills the middle and is sunlit
+    grey = np.asarray(pixels[12:20, 12:20]).reshape(-1, 3).mean(axis=0)
+    assert grey.min() > 0.5 * grey.max()  # default sun and sky are close to white
+    assert (tmp_path / "bare.png").stat().st_size > 0
+
+
+@pytest.mark.render
+def test_bad_data_renders_what_it_can_with_warnings_naming_prims(tmp_path):
+    out = tmp_path / "bad.exr"
+    result = run(DATA / "bad_data.usda", "-o", out, "--spp", 4, "--resolution", "16x16", "-q")
+    assert result.exit_code == 0, result.output
+    err = result.output
+    assert "warning: /NaNPoints: 1 of 5 points are NaN" in err
+    assert "warning: /Empty: empty mesh" in err
+    assert "warning: /Looks/Textured/Albedo: texture 'textures/missing_albedo.png' not found" in err
+    assert "warning: /Box: Cube prims are not supported" in err
+    assert "Traceback" not in err
+    pixels, _ = read_exr(out)
+    assert np.isfinite(pixels).all()
+    centre = pixels[6:10, 6:10].reshape(-1, 3).mean(axis=0)
+    assert centre[1] > 1.5 * centre[0]  # the texture's green fallback colour is used
+
+
+def test_broken_layer_is_a_one_line_error_and_writes_nothing(tmp_path):
+    out = tmp_path / "broken.exr"
+    result = run(DATA / "broken_layer.usda", "-o", out, "--spp", 1, "-q")
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "broken_layer.usda" in lines[0]
+    assert "broken_layer.usda:6:1: parse error" in lines[0] and "pxrInternal" not in lines[0]
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_missing_stage_and_bad_options_are_one_line_errors(tmp_path):
+    result = run(tmp_path / "nope.usda", "-q")
+    assert result.exit_code == 2 and "error: " in result.output and "no such file" in result.output
+    result = run(DATA / "bare_quad.usda", "--resolution", "12by4")
+    assert result.exit_code == 2 and "WIDTHxHEIGHT" in result.output
+
+
+@pytest.mark.render
+def test_unknown_camera_names_the_cameras(tmp_path):
+    result = run(
+        SCENE,
+        "-o",
+        tmp_path / "x.exr",
+        "--camera",
+        "/Nope",
+        "--spp",
+        1,
+        "--resolution",
+        "8x8",
+        "-q",
+    )
+    assert result.exit_code == 2
+    assert (
+        "error: --camera: no visible camera at /Nope" in result.output
+        and "/World/Camera" in result.output
+    )
+    assert not (tmp_path / "x.exr").exists()
+
+
+@pytest.mark.render
+def test_same_seed_same_image_other_seed_other_noise():
+    a = quiet_render(DATA / "bare_quad.usda", spp=8, resolution=(24, 24), seed=3)
+    b = quiet_render(DATA / "bare_quad.usda", spp=8, resolution=(24, 24), seed=3)
+    c = quiet_render(DATA / "bare_quad.usda", spp=8, resolution=(24, 24), seed=4)
+    np.testing.assert_array_equal(a.rgb, b.rgb)
+    assert np.abs(a.rgb - c.rgb).max() > 1e-3
+    assert a.metadata["seed"] == 3 and a.metadata["variant"] == "llvm_ad_spectral"
+
+
+@pytest.mark.render
+def test_moments_give_a_variance_that_falls_as_one_over_spp():
+    low = quiet_render(DATA / "bare_quad.usda", spp=16, resolution=(16, 16), moments=True)
+    high = quiet_render(DATA / "bare_quad.usda", spp=64, resolution=(16, 16), moments=True)
+    assert low.variance.shape == (16, 16, 3) and np.all(low.variance >= 0)
+    lit = low.rgb.mean(axis=2) > 0.1
+    ratio = low.variance[lit].mean() / high.variance[lit].mean()
+    assert ratio == pytest.approx(4.0, rel=0.35)
+    # the variance predicts the actual error between two independent renders
+    other = quiet_render(DATA / "bare_quad.usda", spp=16, resolution=(16, 16), seed=9)
+    observed = ((low.rgb - other.rgb) ** 2)[lit].mean() / 2.0
+    assert observed == pytest.approx(low.variance[lit].mean(), rel=0.35)
+
+
+@pytest.mark.render
+def test_shipped_scene_renders_the_feather_in_colour(tmp_path):
+    result = quiet_render(SCENE, spp=16, resolution=(32, 48))
+    assert result.metadata["camera"] == "/World/Camera"
+    centre = result.rgb[16:32, 10:22].reshape(-1, 3).mean(axis=0)
+    assert centre.max() > 0.1 and centre.max() > 2.0 * centre.min()  # saturated, not grey
