@@ -28,10 +28,9 @@ def main() -> None:
     import mitsuba as mi
 
     from pavonine.materials import rod
-    from pavonine.materials.arraymath import DrJitOps
-    from pavonine.materials.brdf import MaterialConstants, RowTable, feather_brdf, srgb_model_eval
+    from pavonine.materials.brdf import RowTable
     from pavonine.materials.parameters import preset
-    from pavonine.render.feather_bsdf import class_tables, gather_stacks
+    from pavonine.render.feather_bsdf import JitMaterial
 
     params = preset("paper-table1")
     rod.row_reflectance_table.cache_clear()
@@ -39,11 +38,7 @@ def main() -> None:
     table = RowTable.build(complex(params.melanin_index / params.medium_index))
     table_seconds = time.perf_counter() - t0
 
-    ops = DrJitOps()
-    constants = MaterialConstants.from_parameters(params)
-    jit_table = RowTable(mi.Float(table.values), table.x_max, table.n_x, table.n_cos)
-    tables = class_tables(params)
-    coefficients = [float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*params.melanin_color))]
+    material = JitMaterial(params)
     n = args.n
     rng = np.random.default_rng(0)
 
@@ -64,20 +59,8 @@ def main() -> None:
         )
 
     def evaluate(wi, wo, lam, cls, grad, share):
-        long_stack, short_stack = gather_stacks(tables, cls, grad)
-        albedo = srgb_model_eval(coefficients, lam, ops)
-        value = feather_brdf(
-            constants,
-            jit_table,
-            (wi.x, wi.y, wi.z),
-            (wo.x, wo.y, wo.z),
-            lam,
-            long_stack,
-            short_stack,
-            share,
-            albedo,
-            ops,
-        )
+        long_stack, short_stack = material.stacks(cls, grad)
+        value = material.brdf(wi, wo, lam, long_stack, short_stack, share)
         dr.eval(value)
         dr.sync_thread()
         return value

@@ -147,30 +147,60 @@ def gather_stacks(tables: dict, ocellar_class, gradation, active=True) -> list[t
     return stacks
 
 
+class JitMaterial:
+    """The feather material's state as Dr.Jit arrays: what :func:`feather_brdf` needs per lane."""
+
+    def __init__(self, params: FeatherParameters):
+        import mitsuba as mi
+
+        from pavonine.materials.arraymath import DrJitOps
+
+        self.params = params.validate()
+        self.ops = DrJitOps()
+        self.constants = MaterialConstants.from_parameters(params)
+        table = RowTable.build(complex(params.melanin_index / params.medium_index))
+        self.table = RowTable(mi.Float(table.values), table.x_max, table.n_x, table.n_cos)
+        self.class_tables = class_tables(params)
+        self.melanin_coefficients = [
+            float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*params.melanin_color))
+        ]
+
+    def stacks(self, ocellar_class, gradation, active=True) -> list[tuple]:
+        """``[long, short]`` stacks per lane (see :func:`gather_stacks`)."""
+        return gather_stacks(self.class_tables, ocellar_class, gradation, active)
+
+    def brdf(self, wi, wo, wavelength_nm, long_stack, short_stack, share):
+        """BRDF (1/sr, no cosine) per lane for barbule-frame ``mi.Vector3f`` directions."""
+        albedo = srgb_model_eval(self.melanin_coefficients, wavelength_nm, self.ops)
+        return feather_brdf(
+            self.constants,
+            self.table,
+            (wi.x, wi.y, wi.z),
+            (wo.x, wo.y, wo.z),
+            wavelength_nm,
+            long_stack,
+            short_stack,
+            share,
+            albedo,
+            self.ops,
+        )
+
+
 @functools.cache
 def _plugin_class(variant: str):
     """Define the BSDF class for the active variant (Mitsuba classes are per variant)."""
     import drjit as dr
     import mitsuba as mi
 
-    from pavonine.materials.arraymath import DrJitOps
-
     class FeatherBSDF(mi.BSDF):
         """Peacock-feather BSDF; see :mod:`pavonine.render.feather_bsdf`."""
 
         def __init__(self, props: mi.Properties):
             mi.BSDF.__init__(self, props)
-            self.params = decode_parameters(props).validate()
-            self.ops = DrJitOps()
-            self.constants = MaterialConstants.from_parameters(self.params)
-            table = RowTable.build(complex(self.params.melanin_index / self.params.medium_index))
-            self.table = RowTable(mi.Float(table.values), table.x_max, table.n_x, table.n_cos)
-            self.class_tables = class_tables(self.params)
+            self.material = JitMaterial(decode_parameters(props))
+            self.params, self.constants = self.material.params, self.material.constants
             self.n_classes = len(self.params.classes)
             self.maps = {name: props.get(name, None) for name in DATA_MAPS}
-            self.melanin_coefficients = [
-                float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*self.params.melanin_color))
-            ]
             self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
             self.alpha_x_sampling = float(
                 barbule.beckmann_alpha(
@@ -204,7 +234,7 @@ def _plugin_class(variant: str):
             grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
             cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
             t = dr.clip(self._map("gradation", si, active), 0.0, 1.0)
-            stacks = gather_stacks(self.class_tables, cls, t, active)
+            stacks = self.material.stacks(cls, t, active)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
             share = dr.clip(self._map("melanin", si, active), 0.0, 1.0)
             return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share
@@ -220,24 +250,10 @@ def _plugin_class(variant: str):
         def _brdf(self, si, wi, wo, state, active):
             """Spectral BRDF value (no cosine) for barbule-frame directions."""
             _, _, long_stack, short_stack, share = state
-            out = []
-            for k in range(len(si.wavelengths)):
-                lam = si.wavelengths[k]
-                albedo = srgb_model_eval(self.melanin_coefficients, lam, self.ops)
-                out.append(
-                    feather_brdf(
-                        self.constants,
-                        self.table,
-                        (wi.x, wi.y, wi.z),
-                        (wo.x, wo.y, wo.z),
-                        lam,
-                        long_stack,
-                        short_stack,
-                        share,
-                        albedo,
-                        self.ops,
-                    )
-                )
+            out = [
+                self.material.brdf(wi, wo, si.wavelengths[k], long_stack, short_stack, share)
+                for k in range(len(si.wavelengths))
+            ]
             return mi.Spectrum(out)
 
         def _lobe_pdf(self, wi, wo, share):
