@@ -24,6 +24,8 @@ COMMANDS: dict[str, str] = {
     "compare": "pavonine.pipeline.cmd_compare:compare",
     "baseline": "pavonine.pipeline.cmd_baseline:baseline",
     "check-renders": "pavonine.pipeline.cmd_check_renders:check_renders",
+    "maps": "pavonine.pipeline.cmd_maps:maps",
+    "convert": "pavonine.pipeline.cmd_convert:convert",
 }
 
 

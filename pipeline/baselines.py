@@ -1,0 +1,452 @@
+"""Approved baseline renders: ``assets/baselines/<scene>/`` holds ``mean.exr`` (scene-linear),
+``variance.exr`` (per-pixel variance of that estimate), ``preview.png`` and ``baseline.json`` (how
+it was made and how CI re-renders it). Only :func:`update_baseline` writes them, and only when asked
+(``pavonine baseline update``); checks never touch them.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import os
+import platform
+import shutil
+import tempfile
+from dataclasses import dataclass, field, replace
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pavonine.pipeline.compare import (
+    CompareOptions,
+    ComparisonResult,
+    LoadedImage,
+    compare_arrays,
+    read_image,
+    read_variance,
+    write_exr,
+)
+from pavonine.pipeline.errors import InputError
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+SCENES_DIR = REPO_ROOT / "assets" / "scenes"
+BASELINES_DIR = REPO_ROOT / "assets" / "baselines"
+
+MEAN_FILE = "mean.exr"
+VARIANCE_FILE = "variance.exr"
+INFO_FILE = "baseline.json"
+PREVIEW_FILE = "preview.png"
+FORMAT_VERSION = 1
+
+_VERSIONED = ("pavonine", "mitsuba", "drjit", "usd-core", "numpy", "opencolorio", "OpenImageIO")
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """How a scene is rendered for CI: resolution (width, height), samples per pixel and seed.
+
+    ``resolution=None`` means CI size: the stage's own aspect ratio, longer side ``CI_LONG_SIDE``.
+    """
+
+    resolution: tuple[int, int] | None = None
+    spp: int = 64
+    seed: int = 0
+
+    def to_json(self) -> dict[str, Any]:
+        size = list(self.resolution) if self.resolution else None
+        return {"resolution": size, "spp": self.spp, "seed": self.seed}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any], where: str) -> RenderSettings:
+        try:
+            width, height = (int(v) for v in data["resolution"])
+            settings = cls((width, height), int(data["spp"]), int(data["seed"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(where, f"bad render settings {data!r} ({exc})") from None
+        if width <= 0 or height <= 0 or settings.spp <= 0:
+            raise InputError(where, f"resolution and spp must be positive, got {data!r}")
+        return settings
+
+
+#: Seed-to-seed renders made at update time to measure the check's noise.
+CALIBRATION_SEEDS = 2
+#: Per-scene FLIP threshold = this × the worst seed-to-seed mean FLIP at check settings.
+FLIP_NOISE_FACTOR = 2.0
+#: ... but never below this (a noise-free scene would otherwise fail on rounding).
+FLIP_MIN_THRESHOLD = 0.01
+
+#: Longer image side of CI renders (pixels); the shorter follows the stage's aspect ratio.
+CI_LONG_SIDE = 96
+#: The baseline itself: 4x the check's samples, so its noise adds only 1/4 to the check's variance.
+BASELINE_SETTINGS = RenderSettings(None, 256, 0)
+#: What ``check-renders`` renders: same size, another seed (a check must not replay the baseline).
+CHECK_SETTINGS = RenderSettings(None, 64, 1)
+
+
+@dataclass
+class Baseline:
+    """A loaded baseline: scene-linear mean, per-pixel variance of that estimate, and its record."""
+
+    scene: str
+    directory: Path
+    mean: LoadedImage
+    variance: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def check_settings(self) -> RenderSettings:
+        """Settings for re-rendering this scene in CI (recorded at update time)."""
+        where = str(self.directory / INFO_FILE)
+        return RenderSettings.from_json(self.info.get("check", CHECK_SETTINGS.to_json()), where)
+
+    @property
+    def recorded_sha256(self) -> str | None:
+        """:func:`stage_sha256` of the stage when the baseline was made."""
+        return self.info.get("stage_sha256")
+
+
+def scene_name(stage: str | Path) -> str:
+    """A scene's name: its stage file's stem (``eye_feather_sun``)."""
+    return Path(stage).stem
+
+
+def is_scene(path: Path) -> bool:
+    """A stage meant to be rendered: its root layer names its render settings.
+
+    ``renderSettingsPrimPath`` layer metadata; assets referenced by scenes (a feather component
+    beside them) do not have it.
+    """
+    from pxr import Sdf, Tf
+
+    try:
+        layer = Sdf.Layer.FindOrOpen(str(path))
+    except Tf.ErrorException:
+        return True  # broken layers count as scenes, so that checking them reports the error
+    return layer is None or bool(layer.pseudoRoot.GetInfo("renderSettingsPrimPath"))
+
+
+def shipped_scenes(scenes_dir: str | Path = SCENES_DIR) -> list[Path]:
+    """Every shipped scene (``assets/scenes/*.usda`` naming its render settings), by name."""
+    return sorted(p for p in Path(scenes_dir).glob("*.usda") if is_scene(p))
+
+
+def resolve_stage(scene: str, scenes_dir: str | Path = SCENES_DIR) -> Path:
+    """A scene given by name (``eye_feather_sun``) or path, as an existing stage file."""
+    candidate = Path(scene)
+    if candidate.suffix in (".usda", ".usd", ".usdc") and candidate.is_file():
+        return candidate
+    stage = Path(scenes_dir) / f"{scene}.usda"
+    if stage.is_file():
+        return stage
+    known = ", ".join(scene_name(p) for p in shipped_scenes(scenes_dir)) or "none"
+    raise InputError(scene, f"no such scene (shipped scenes: {known})")
+
+
+def ci_resolution(stage: str | Path, long_side: int = CI_LONG_SIDE) -> tuple[int, int]:
+    """The stage's render resolution (``UsdRender.Settings``) scaled to ``long_side`` pixels."""
+    from pavonine.render.delegate import open_stage
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.settings import DEFAULT_RESOLUTION, read_render_settings
+
+    diag = Diagnostics()
+    width, height = read_render_settings(open_stage(stage, diag), diag).resolution or (
+        DEFAULT_RESOLUTION
+    )
+    scale = long_side / max(width, height)
+    return max(1, round(width * scale)), max(1, round(height * scale))
+
+
+def file_sha256(path: str | Path) -> str:
+    """Hex SHA-256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def stage_sha256(stage: str | Path) -> str:
+    """Hex SHA-256 of everything a stage is made of: its layers and assets (maps), by content.
+
+    Dependencies come from ``UsdUtils.ComputeAllDependencies``; their digests are sorted so the
+    result does not depend on where the repository is checked out.
+    """
+    from pxr import Tf, UsdUtils
+
+    files = [str(stage)]
+    try:
+        layers, assets, _unresolved = UsdUtils.ComputeAllDependencies(str(stage))
+        files += [layer.realPath for layer in layers if layer.realPath] + list(assets)
+    except Tf.ErrorException:
+        pass  # a broken stage: the root file alone, and rendering will name the error
+    digests = sorted({file_sha256(f) for f in files if os.path.isfile(f)})
+    return hashlib.sha256("\n".join(digests).encode()).hexdigest()
+
+
+def load_baseline(directory: str | Path) -> Baseline:
+    """Read ``mean.exr``, ``variance.exr`` and ``baseline.json`` from a baseline folder."""
+    directory = Path(directory)
+    if not (directory / MEAN_FILE).is_file():
+        raise InputError(
+            str(directory),
+            f"no baseline here (missing {MEAN_FILE}); run 'pavonine baseline update "
+            f"{directory.name}'",
+        )
+    mean = read_image(directory / MEAN_FILE)
+    if not np.all(np.isfinite(mean.rgb)):
+        raise InputError(str(directory / MEAN_FILE), "baseline has NaN or infinite pixels")
+    variance = read_variance(directory / VARIANCE_FILE, mean.size)
+    info: dict[str, Any] = {}
+    info_path = directory / INFO_FILE
+    if info_path.is_file():
+        try:
+            info = json.loads(info_path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise InputError(
+                str(info_path), f"invalid JSON ({exc.msg} at line {exc.lineno})"
+            ) from None
+    return Baseline(directory.name, directory, mean, variance, info)
+
+
+def baseline_for(scene: str, baselines_dir: str | Path = BASELINES_DIR) -> Baseline:
+    """The stored baseline of ``scene`` (a name or a stage path)."""
+    return load_baseline(Path(baselines_dir) / scene_name(scene))
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of everything that shapes a render, for the baseline record."""
+    versions = {"python": platform.python_version()}
+    for dist in _VERSIONED:
+        try:
+            versions[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            versions[dist] = "not installed"
+    return versions
+
+
+@dataclass
+class SceneRender:
+    """A render for comparison: scene-linear RGB, variance of the estimate, renderer metadata."""
+
+    rgb: np.ndarray
+    variance: np.ndarray
+    metadata: dict[str, Any]
+
+
+def render_scene(
+    stage: str | Path, settings: RenderSettings, *, progress: bool = False
+) -> SceneRender:
+    """Render ``stage`` with :func:`pavonine.render.api.render_stage`, with per-pixel variance."""
+    from pavonine.render.api import render_stage
+
+    result = render_stage(
+        str(stage),
+        spp=settings.spp,
+        resolution=settings.resolution,
+        seed=settings.seed,
+        moments=True,
+        progress=progress,
+    )
+    rgb = np.asarray(result.rgb, dtype=np.float32)[:, :, :3]
+    if result.variance is None:
+        raise InputError(str(stage), "renderer returned no variance with moments=True")
+    variance = np.maximum(np.asarray(result.variance, dtype=np.float32)[:, :, :3], 0.0)
+    if (rgb.shape[1], rgb.shape[0]) != settings.resolution:
+        raise InputError(
+            str(stage),
+            f"render is {rgb.shape[1]}x{rgb.shape[0]}, expected "
+            f"{settings.resolution[0]}x{settings.resolution[1]}",
+        )
+    return SceneRender(rgb, variance, dict(getattr(result, "metadata", {}) or {}))
+
+
+def update_baseline(
+    stage: str | Path,
+    *,
+    baselines_dir: str | Path = BASELINES_DIR,
+    settings: RenderSettings = BASELINE_SETTINGS,
+    check: RenderSettings = CHECK_SETTINGS,
+    command: str = "",
+    progress: bool = False,
+) -> Baseline:
+    """Render ``stage`` at ``settings`` and replace its baseline folder atomically."""
+    stage = Path(stage)
+    name = scene_name(stage)
+    size = settings.resolution or ci_resolution(stage)
+    settings = replace(settings, resolution=size)
+    check = replace(check, resolution=size)
+    if check.seed == settings.seed:
+        raise InputError(
+            "check seed", "must differ from the baseline seed (a check must not replay it)"
+        )
+    render = render_scene(stage, settings, progress=progress)
+    if not np.all(np.isfinite(render.rgb)):
+        raise InputError(str(stage), "render has NaN or infinite pixels; refusing to store it")
+    calibration = calibrate(stage, render, check, progress=progress)
+    root = Path(baselines_dir)
+    root.mkdir(parents=True, exist_ok=True)
+    target = root / name
+    info = {
+        "format": FORMAT_VERSION,
+        "scene": name,
+        "stage": _relative(stage),
+        "stage_sha256": stage_sha256(stage),
+        "baseline": settings.to_json(),
+        "check": check.to_json(),
+        "variance": "per-pixel variance of the mean estimate (scene-linear units squared)",
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "command": command,
+        "calibration": calibration,
+        "flip_threshold": calibration["flip_threshold"],
+        "versions": package_versions(),
+        "renderer": _jsonable({k: v for k, v in render.metadata.items() if k != "stage"}),
+    }
+    staging = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=root))
+    try:
+        from pavonine.render.imageio import write_exr as write_scene_exr
+        from pavonine.render.imageio import write_png as write_scene_png
+
+        write_scene_exr(staging / MEAN_FILE, render.rgb, {"scene": name, **settings.to_json()})
+        write_exr(staging / VARIANCE_FILE, render.variance)
+        write_scene_png(staging / PREVIEW_FILE, render.rgb)
+        (staging / INFO_FILE).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
+        for written in staging.iterdir():
+            written.chmod(0o644)
+        staging.chmod(0o755)
+        old = None
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{name}.old.", dir=root))
+            os.replace(target, old / name)
+        os.replace(staging, target)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging, ignore_errors=True)
+    return load_baseline(target)
+
+
+def calibrate(
+    stage: Path,
+    baseline: SceneRender,
+    check: RenderSettings,
+    *,
+    seeds: int = CALIBRATION_SEEDS,
+    progress: bool = False,
+) -> dict[str, Any]:
+    """Measure seed-to-seed noise: render ``check`` with other seeds and compare with the baseline.
+
+    Every such render must pass ``stat`` (else the check would be flaky: raise the sample counts);
+    the FLIP threshold becomes ``FLIP_NOISE_FACTOR`` times the worst seed-to-seed mean FLIP.
+    """
+    record: dict[str, Any] = {"seeds": [], "stat_max_z_ratio": [], "flip_mean": []}
+    for k in range(1, seeds + 1):
+        settings = RenderSettings(check.resolution, check.spp, check.seed + k)
+        render = render_scene(stage, settings, progress=progress)
+        stat, flip = (
+            compare_arrays(
+                render.rgb, baseline.rgb, method,
+                test_variance=render.variance, ref_variance=baseline.variance,
+            )
+            for method in ("stat", "flip")
+        )  # fmt: skip
+        if not stat.passed:
+            raise InputError(
+                str(stage),
+                f"seed {settings.seed} at {check.spp} spp fails 'stat' against the new baseline "
+                f"({stat.numbers}); the check would be flaky: raise --check-spp or --spp",
+            )
+        record["seeds"].append(settings.seed)
+        record["stat_max_z_ratio"].append(stat.numbers["max_z_ratio"])
+        record["flip_mean"].append(flip.numbers["mean_flip"])
+    worst = max(record["flip_mean"], default=0.0)
+    record["flip_threshold"] = round(max(FLIP_NOISE_FACTOR * worst, FLIP_MIN_THRESHOLD), 4)
+    return record
+
+
+@dataclass
+class SceneCheck:
+    """One scene re-rendered and compared with its baseline."""
+
+    scene: str
+    render: SceneRender
+    baseline: Baseline
+    results: list[ComparisonResult]
+    settings: RenderSettings
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed for r in self.results)
+
+
+def check_stage(
+    stage: str | Path,
+    baseline: Baseline,
+    *,
+    seed: int | None = None,
+    methods: tuple[str, ...] = ("stat", "flip"),
+    options: CompareOptions | None = None,
+    progress: bool = False,
+) -> SceneCheck:
+    """Render ``stage`` with the baseline's check settings (another seed) and compare."""
+    settings = baseline.check_settings
+    if seed is not None:
+        settings = RenderSettings(settings.resolution, settings.spp, seed)
+    if settings.resolution != baseline.mean.size:
+        raise InputError(
+            str(baseline.directory / INFO_FILE),
+            f"check resolution {settings.resolution} differs from the baseline's {baseline.mean.size}",
+        )
+    options = options or options_for(baseline)
+    render = render_scene(stage, settings, progress=progress)
+    results = [
+        compare_arrays(
+            render.rgb,
+            baseline.mean.rgb,
+            method,
+            test_variance=render.variance,
+            ref_variance=baseline.variance,
+            options=options,
+        )
+        for method in methods
+    ]
+    notes = []
+    recorded = baseline.recorded_sha256
+    if recorded and Path(stage).is_file() and stage_sha256(stage) != recorded:
+        notes.append(
+            f"{_relative(Path(stage))} or a layer or map it uses changed since the baseline "
+            "was made; if the change is "
+            f"intended, run 'pavonine baseline update {baseline.scene}'"
+        )
+    return SceneCheck(baseline.scene, render, baseline, results, settings, notes)
+
+
+def options_for(baseline: Baseline) -> CompareOptions:
+    """Comparison options, with a FLIP threshold recorded in the baseline taking precedence."""
+    threshold = baseline.info.get("flip_threshold")
+    if isinstance(threshold, int | float) and threshold > 0:
+        return CompareOptions(flip_threshold=float(threshold))
+    return CompareOptions()
+
+
+def _relative(path: Path) -> str:
+    """``path`` relative to the repository when inside it (for records and messages)."""
+    try:
+        return str(path.resolve().relative_to(REPO_ROOT))
+    except ValueError:
+        return str(path)
+
+
+def _jsonable(value: Any) -> Any:
+    """Renderer metadata reduced to JSON types (unknown objects become strings)."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist() if value.size <= 16 else f"array{value.shape}"
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    return str(value)

@@ -1,0 +1,283 @@
+"""Image comparison: the noise-aware Z-test, FLIP, image input and ``pavonine compare``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from pavonine.pipeline.cli import cli
+from pavonine.pipeline.compare import (
+    compare_arrays,
+    display_decode,
+    display_encode,
+    estimate_noise_variance,
+    read_image,
+    sidak_alpha,
+    stat_test,
+    write_exr,
+    write_png,
+)
+
+SIZE = 64
+
+
+def smooth_image(size: int = SIZE) -> np.ndarray:
+    """A smooth, coloured, strictly positive scene-linear image."""
+    y, x = np.mgrid[0:size, 0:size] / size
+    return np.stack([0.2 + 0.6 * x, 0.25 + 0.2 * np.sin(4 * y), 0.1 + 0.5 * x * y], axis=-1).astype(
+        np.float32
+    )
+
+
+def noisy(truth: np.ndarray, seed: int, relative_sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """A Monte Carlo-like estimate of ``truth``: Gaussian noise, and the variance of the estimate."""
+    rng = np.random.default_rng(seed)
+    variance = (relative_sigma * truth) ** 2
+    image = truth + rng.normal(size=truth.shape) * np.sqrt(variance)
+    return image.astype(np.float32), variance.astype(np.float32)
+
+
+def shifted(truth: np.ndarray, factor: float, box=(slice(16, 48), slice(16, 48))) -> np.ndarray:
+    out = truth.copy()
+    out[box] *= factor
+    return out
+
+
+# ------------------------------------------------------------------------------------ statistics
+def test_sidak_level_gives_family_wise_significance():
+    assert sidak_alpha(0.01, 1) == pytest.approx(0.01)
+    alpha = sidak_alpha(0.01, 12288)
+    assert (1 - alpha) ** 12288 == pytest.approx(0.99, rel=1e-9)
+    assert alpha < 0.01 / 12288 * 1.01
+
+
+@pytest.mark.parametrize("seed", range(1, 13))
+def test_other_seed_passes_stat(seed):
+    truth = smooth_image()
+    ref, ref_var = noisy(truth, 0, 0.05)
+    test, test_var = noisy(truth, seed, 0.05)
+    result = stat_test(test, ref, test_var, ref_var)
+    assert result.passed, result.numbers
+
+
+def test_two_percent_shift_in_a_region_fails_stat_and_heatmap_shows_where():
+    truth = smooth_image()
+    ref, ref_var = noisy(truth, 0, 0.05)
+    test, test_var = noisy(shifted(truth, 1.02), 1, 0.05)
+    result = stat_test(test, ref, test_var, ref_var)
+    assert not result.passed
+    per_pixel = result.scales[0]
+    assert per_pixel.block == 1 and per_pixel.passed  # invisible pixel by pixel ...
+    assert any(not s.passed for s in result.scales[1:])  # ... caught by block means
+    brightness = result.heatmap.sum(axis=2)
+    assert brightness[20:44, 20:44].mean() > 2 * brightness[:8, :].mean()
+
+
+def test_noise_is_not_mistaken_for_a_shift_when_variance_is_ignored():
+    """Without the variance, a 2 % shift and seed-to-seed noise of 5 % look alike per pixel."""
+    truth = smooth_image()
+    ref, _ = noisy(truth, 0, 0.05)
+    other_seed, _ = noisy(truth, 1, 0.05)
+    changed, _ = noisy(shifted(truth, 1.02), 1, 0.05)
+    rms = [float(np.sqrt(np.mean((img - ref) ** 2))) for img in (other_seed, changed)]
+    assert rms[1] == pytest.approx(rms[0], rel=0.1)
+
+
+def test_a_few_outlier_pixels_pass_within_the_pass_ratio():
+    truth = smooth_image()
+    ref, ref_var = noisy(truth, 0, 0.05)
+    test, test_var = noisy(truth, 1, 0.05)
+    test[5, 7] += 0.5  # one firefly: 1 of 12288 per-pixel tests
+    result = stat_test(test, ref, test_var, ref_var, blocks=(1,))
+    assert result.passed
+    assert result.scales[0].failures >= 1
+
+
+def test_nonfinite_test_pixel_fails():
+    truth = smooth_image()
+    ref, ref_var = noisy(truth, 0, 0.05)
+    test, test_var = noisy(truth, 1, 0.05)
+    test[10, 10, 1] = np.nan
+    result = stat_test(test, ref, test_var, ref_var)
+    assert not result.passed
+    assert result.numbers["nonfinite_pixels"] == 1
+
+
+def test_identical_noise_free_images_pass_and_tiny_bias_on_flat_background_passes():
+    flat = np.full((32, 32, 3), 0.5, np.float32)
+    zero = np.zeros_like(flat)
+    assert stat_test(flat, flat, zero, zero).passed
+    assert stat_test(flat * (1 + 1e-5), flat, zero, zero).passed
+    assert not stat_test(flat * 1.01, flat, zero, zero).passed
+
+
+def test_noise_variance_estimate_recovers_known_sigma():
+    rng = np.random.default_rng(3)
+    sigma = 0.03
+    image = smooth_image(128) + rng.normal(scale=sigma, size=(128, 128, 3)).astype(np.float32)
+    estimate = estimate_noise_variance(image)
+    assert np.median(estimate) == pytest.approx(sigma**2, rel=0.15)
+
+
+def test_stat_without_variances_estimates_them():
+    truth = smooth_image()
+    ref, _ = noisy(truth, 0, 0.05)
+    same, _ = noisy(truth, 1, 0.05)
+    different, _ = noisy(shifted(truth, 1.3), 1, 0.05)
+    assert compare_arrays(same, ref, "stat").passed
+    assert not compare_arrays(different, ref, "stat").passed
+
+
+# ------------------------------------------------------------------------------------------ FLIP
+def test_display_encoding_is_the_srgb_curve_and_inverts():
+    linear = np.array([[[0.0, 0.0031308, 0.18], [0.5, 1.0, 2.0]]], np.float32)
+    encoded = display_encode(linear)
+    expected = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
+    assert encoded == pytest.approx(np.clip(expected, 0, 1), abs=2e-4)
+    inside = linear[linear <= 1.0]
+    assert display_decode(encoded)[linear <= 1.0] == pytest.approx(inside, abs=1e-4)
+
+
+def test_flip_passes_noise_and_fails_a_swapped_image():
+    truth = smooth_image()
+    ref, _ = noisy(truth, 0, 0.05)
+    test, _ = noisy(truth, 1, 0.05)
+    assert compare_arrays(test, ref, "flip").passed
+    swapped = test[:, ::-1, ::-1].copy()
+    result = compare_arrays(swapped, ref, "flip")
+    assert not result.passed
+    assert result.numbers["mean_flip"] > 0.1
+    assert result.heatmap.shape == (SIZE, SIZE, 3)
+
+
+# ------------------------------------------------------------------------------------- the CLI
+@pytest.fixture
+def images(tmp_path: Path) -> Path:
+    truth = smooth_image()
+    ref, ref_var = noisy(truth, 0, 0.05)
+    same, same_var = noisy(truth, 1, 0.05)
+    changed, changed_var = noisy(shifted(truth, 1.02), 1, 0.05)
+    for name, image, variance in (
+        ("ref", ref, ref_var),
+        ("same", same, same_var),
+        ("changed", changed, changed_var),
+    ):
+        write_exr(tmp_path / f"{name}.exr", image)
+        write_exr(tmp_path / f"{name}_var.exr", variance)
+        write_png(tmp_path / f"{name}.png", display_encode(image))
+    rgba = np.concatenate([display_encode(ref), np.ones((SIZE, SIZE, 1))], axis=2)
+    write_png(tmp_path / "rgba.png", rgba)
+    write_png(tmp_path / "small.png", display_encode(ref[:32, :48]))
+    (tmp_path / "corrupt.exr").write_bytes((tmp_path / "ref.exr").read_bytes()[:400])
+    (tmp_path / "text.png").write_text("not an image")
+    return tmp_path
+
+
+def run(*args: str):
+    return CliRunner().invoke(cli, ["compare", *args], catch_exceptions=False)
+
+
+def test_cli_agree_exits_0_and_writes_heatmaps_and_json(images: Path):
+    d = images
+    out = d / "out"
+    result = run(
+        str(d / "same.exr"), str(d / "ref.exr"), "--method", "all",
+        "--ref-variance", str(d / "ref_var.exr"), "--test-variance", str(d / "same_var.exr"),
+        "--heatmap-dir", str(out), "--json", str(d / "numbers.json"),
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "agree" in result.output
+    for method in ("stat", "flip"):
+        heatmap = read_image(out / f"same.{method}-diff.png")
+        assert heatmap.size == (SIZE, SIZE)
+    numbers = json.loads((d / "numbers.json").read_text())
+    assert numbers["stat"]["passed"] is True and numbers["flip"]["passed"] is True
+
+
+def test_cli_shift_exits_1(images: Path):
+    d = images
+    result = run(
+        str(d / "changed.exr"), str(d / "ref.exr"),
+        "--ref-variance", str(d / "ref_var.exr"), "--test-variance", str(d / "changed_var.exr"),
+    )  # fmt: skip
+    assert result.exit_code == 1, result.output
+    assert "DIFFER" in result.output
+    assert (d / "changed.stat-diff.png").is_file()
+
+
+def test_cli_png_inputs_fall_back_to_estimated_variance(images: Path):
+    d = images
+    assert run(str(d / "same.png"), str(d / "ref.png"), "--method", "all").exit_code == 0
+    flipped = display_encode(read_image(d / "same.exr").rgb)[::-1]
+    write_png(d / "upside_down.png", flipped)
+    assert run(str(d / "upside_down.png"), str(d / "ref.png")).exit_code == 1
+
+
+@pytest.mark.parametrize(
+    ("test", "ref", "reason"),
+    [
+        ("small.png", "ref.png", "different sizes: 48x32 vs 64x64"),
+        ("rgba.png", "ref.png", "different channel counts: 4 vs 3"),
+        ("corrupt.exr", "ref.exr", "corrupt"),
+        ("text.png", "ref.png", "cannot read image"),
+        ("missing.exr", "ref.exr", "no such file"),
+        ("ref_var.exr", "ref.txt", "unsupported image type"),
+    ],
+)
+def test_cli_bad_input_exits_2_with_one_line(images: Path, test: str, ref: str, reason: str):
+    (images / "ref.txt").write_text("x")
+    result = CliRunner().invoke(cli, ["compare", str(images / test), str(images / ref)])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert reason in lines[0]
+    assert not list(images.glob(f"{Path(test).stem}.*-diff.png"))
+
+
+def test_cli_variance_of_wrong_size_exits_2(images: Path):
+    d = images
+    write_exr(d / "small_var.exr", np.zeros((8, 8, 3), np.float32))
+    result = CliRunner().invoke(
+        cli, ["compare", str(d / "same.exr"), str(d / "ref.exr"), "--ref-variance", str(d / "small_var.exr")]
+    )  # fmt: skip
+    assert result.exit_code == 2
+    assert "variance is 8x8, image is 64x64" in result.output
+
+
+def test_cli_baseline_folder_as_ref_scales_variance_by_spp(tmp_path: Path):
+    """A baseline folder knows its spp and the check's: a 4x noisier TEST is expected."""
+    truth = smooth_image()
+    folder = tmp_path / "eye"
+    folder.mkdir()
+    ref, ref_var = noisy(truth, 0, 0.02)  # 256 spp
+    test, _ = noisy(truth, 1, 0.04)  # 64 spp: twice the standard deviation
+    write_exr(folder / "mean.exr", ref)
+    write_exr(folder / "variance.exr", ref_var)
+    record = {"baseline": {"resolution": [64, 64], "spp": 256, "seed": 0},
+              "check": {"resolution": [64, 64], "spp": 64, "seed": 1}, "flip_threshold": 0.2}  # fmt: skip
+    (folder / "baseline.json").write_text(json.dumps(record))
+    write_exr(tmp_path / "test.exr", test)
+    result = run(str(tmp_path / "test.exr"), str(folder), "--method", "all")
+    assert result.exit_code == 0, result.output
+    assert "REF variance x 4" in result.output and "0.2" in result.output
+    result = run(str(tmp_path / "test.exr"), str(folder), "--test-spp", "256")
+    assert result.exit_code == 1, result.output  # claimed as clean as the baseline: it is not
+
+
+def test_cli_png_against_exr_with_out_of_range_values(tmp_path: Path):
+    """A PNG cannot hold negatives or values above 1: the EXR is clipped the same way first."""
+    truth = smooth_image() * 1.6 - 0.05  # over-range highlights and out-of-gamut negatives
+    ref, ref_var = noisy(truth, 0, 0.02)
+    test, _ = noisy(truth, 1, 0.02)
+    write_exr(tmp_path / "ref.exr", ref)
+    write_exr(tmp_path / "ref_var.exr", ref_var)
+    write_png(tmp_path / "test.png", display_encode(test))
+    args = [str(tmp_path / "test.png"), str(tmp_path / "ref.exr")]
+    result = run(*args, "--ref-variance", str(tmp_path / "ref_var.exr"), "--method", "all")
+    assert result.exit_code == 0, result.output
+    write_png(tmp_path / "test.png", display_encode(test * 1.05))
+    assert run(*args, "--ref-variance", str(tmp_path / "ref_var.exr")).exit_code == 1
