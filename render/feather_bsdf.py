@@ -6,7 +6,9 @@ Per shading point it reads four maps through Mitsuba textures at ``si.uv`` (data
 
 * ``ocellar``: grey g → class ``k = round((1 − g)(n − 1))`` (white = class 0 … black = class n−1)
 * ``gradation``: t ∈ [0, 1] between the class's black (0) and white (1) ends (Table 1)
-* ``angle``: grey g → barbule long axis at ``g · 180°`` from the surface tangent ``dp/du``
+* ``angle``: grey g → barbule long axis at ``g · 180°`` counter-clockwise (seen from the front)
+  from the barb direction: the mesh attribute ``vertex_barb_tangent`` when ``barb_tangents`` is
+  set (the render delegate guarantees it on feather meshes), else the surface tangent ``dp/du``
 * ``melanin``: structural share w (1 = full structural colour, 0 = melanin brown)
 
 The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
@@ -35,6 +37,7 @@ from pavonine.materials.brdf import (
 from pavonine.materials.parameters import FeatherParameters
 
 PLUGIN_NAME = "pavonine_feather"
+BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
 SAMPLING_WAVELENGTH_NM = 550.0
 QUANTITIES = ("interval", "radius", "count")
 DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
@@ -99,10 +102,16 @@ def feather_bsdf_dict(
     maps: Mapping[str, str | None] | None = None,
     *,
     bump_scale: float = 0.002,
+    barb_tangents: bool = False,
 ) -> dict:
-    """A ``mi.load_dict`` description of the feather material with its maps (missing = uniform)."""
+    """A ``mi.load_dict`` description of the feather material with its maps (missing = uniform).
+
+    ``barb_tangents``: read the barb direction from the mesh attribute ``vertex_barb_tangent``
+    (every mesh using the material must carry it); otherwise the barb runs along ``dp/du``.
+    """
     maps = dict(maps or {})
     bsdf: dict = {"type": PLUGIN_NAME, **encode_parameters(params.validate())}
+    bsdf["barb_tangents"] = barb_tangents
     for name in DATA_MAPS:
         if maps.get(name):
             bsdf[name] = _bitmap(maps[name], nearest=name == "ocellar")
@@ -201,6 +210,7 @@ def _plugin_class(variant: str):
             self.params, self.constants = self.material.params, self.material.constants
             self.n_classes = len(self.params.classes)
             self.maps = {name: props.get(name, None) for name in DATA_MAPS}
+            self.barb_tangents = bool(props.get("barb_tangents", False))
             self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
             self.alpha_x_sampling = float(
                 barbule.beckmann_alpha(
@@ -236,6 +246,12 @@ def _plugin_class(variant: str):
             t = dr.clip(self._map("gradation", si, active), 0.0, 1.0)
             stacks = self.material.stacks(cls, t, active)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
+            if self.barb_tangents:
+                barb = si.sh_frame.to_local(
+                    mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, si, active))
+                )
+                usable = dr.square(barb.x) + dr.square(barb.y) > 1e-12
+                angle += dr.select(usable, dr.atan2(barb.y, barb.x), 0.0)
             share = dr.clip(self._map("melanin", si, active), 0.0, 1.0)
             return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share
 

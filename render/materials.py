@@ -122,7 +122,7 @@ def feather_bsdf(
             diag.warn(path, f"{name} map {file!r} not found; using the map's neutral value")
             maps[name] = None
     plugin.register()
-    bsdf = plugin.feather_bsdf_dict(params, maps)
+    bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
     return MaterialSpec(path, bsdf, FEATHER_UV, attributes, two_sided=True, is_feather=True)
 
 

@@ -11,7 +11,7 @@ with one warning naming the prim; an empty mesh is skipped with a warning.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
@@ -55,7 +55,7 @@ class TriangleMesh:
     faces: np.ndarray  # (F, 3) uint32
     normals: np.ndarray | None = None
     texcoords: np.ndarray | None = None
-    attributes: dict[str, np.ndarray] | None = None
+    attributes: dict[str, np.ndarray] = field(default_factory=dict)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.positions.min(axis=0), self.positions.max(axis=0)
@@ -264,15 +264,41 @@ def build_triangle_mesh(
         if t is not None and t.shape[1] >= 2 and np.all(np.isfinite(t)):
             # USD's st has v up; Mitsuba's bitmap rows start at the top (as its OBJ/PLY loaders do).
             out.texcoords = np.stack([t[:, 0], 1.0 - t[:, 1]], axis=1).astype(np.float32)
-    if extra:
-        out.attributes = {}
-        for mi_name, primvar in extra.items():
-            values = corner_values(primvar, mi_name)
-            if values is not None and values.shape[1] == 3:
-                out.attributes[mi_name] = transform_directions(values, matrix_usd).astype(
-                    np.float32
-                )
+    out.attributes = {}
+    for mi_name, primvar in extra.items():
+        values = corner_values(primvar, mi_name)
+        if values is not None and values.shape[1] == 3:
+            out.attributes[mi_name] = transform_directions(values, matrix_usd).astype(np.float32)
+    for mi_name in set(attributes.values()) - set(out.attributes):
+        # Requested but not authored (e.g. a hand-made feather mesh without barb tangents): the
+        # BSDF reads the attribute on every mesh of its material, so supply dp/du instead.
+        out.attributes[mi_name] = uv_tangents(out.positions, out.faces, out.texcoords)
     return out
+
+
+def uv_tangents(positions: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -> np.ndarray:
+    """Per-vertex unit ``dp/du`` (Lengyel 2001, "Computing tangent space basis vectors").
+
+    Per triangle ``T = (Δv₂ e₁ − Δv₁ e₂) / (Δu₁ Δv₂ − Δu₂ Δv₁)``, summed at its vertices. Vertices
+    without a usable tangent (no UVs, degenerate UVs) get the zero vector, which the feather BSDF
+    reads as "barb along the surface tangent".
+    """
+    tangents = np.zeros_like(positions, dtype=np.float64)
+    if uv is not None and len(faces):
+        p = positions[faces].astype(np.float64)
+        t = uv[faces].astype(np.float64)
+        e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+        ok = np.abs(det) > 1e-20
+        per_face = np.zeros_like(e1)
+        per_face[ok] = (d2[ok, 1, None] * e1[ok] - d1[ok, 1, None] * e2[ok]) / det[ok, None]
+        for corner in range(3):
+            np.add.at(tangents, faces[:, corner], per_face)
+    length = np.linalg.norm(tangents, axis=1, keepdims=True)
+    return np.where(length > 1e-20, tangents / np.where(length > 0, length, 1.0), 0.0).astype(
+        np.float32
+    )
 
 
 def to_mitsuba_mesh(triangle_mesh: TriangleMesh, bsdf) -> object:
@@ -297,6 +323,6 @@ def to_mitsuba_mesh(triangle_mesh: TriangleMesh, bsdf) -> object:
     if triangle_mesh.texcoords is not None:
         params["vertex_texcoords"] = mi.Float(triangle_mesh.texcoords.ravel())
     params.update()
-    for name, values in (triangle_mesh.attributes or {}).items():
+    for name, values in triangle_mesh.attributes.items():
         m.add_attribute(name, values.shape[1], mi.Float(values.ravel()))
     return m

@@ -146,3 +146,41 @@ def test_sample_weight_matches_eval_over_pdf():
     np.testing.assert_allclose(np.array(bs.pdf)[ok], np.array(pdf)[ok], rtol=1e-3)
     expected = np.array(value)[:, ok] / np.array(pdf)[ok]
     np.testing.assert_allclose(np.array(weight)[:, ok], expected, rtol=2e-3, atol=1e-5)
+
+
+def test_angle_map_is_relative_to_the_barb_tangent():
+    """With ``barb_tangents`` the barbule axis is the mesh's barb direction turned by the angle map."""
+    from pavonine.render.mesh import uv_tangents
+
+    def render_quad(barb, angle):
+        props = mi.Properties()
+        d = _plugin_dict(3, 0.5, angle, 1.0)
+        d["barb_tangents"] = barb is not None
+        props["bsdf"] = mi.load_dict(d)
+        mesh = mi.Mesh("quad", 4, 2, props=props, has_vertex_texcoords=True)
+        params = mi.traverse(mesh)
+        positions = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+        faces = np.array([[0, 1, 2], [0, 2, 3]], np.uint32)
+        uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+        params["vertex_positions"] = mi.Float(positions.ravel())
+        params["faces"] = mi.UInt32(faces.ravel())
+        params["vertex_texcoords"] = mi.Float(uv.ravel())
+        params.update()
+        if barb is not None:
+            tangents = uv_tangents(positions, faces, uv) if barb == "uv" else np.tile(barb, (4, 1))
+            mesh.add_attribute(
+                "vertex_barb_tangent", 3, mi.Float(tangents.astype(np.float32).ravel())
+            )
+        scene = mi.load_dict({"type": "scene", "quad": mesh})
+        si = scene.ray_intersect(mi.Ray3f(mi.Point3f(0.1, 0.2, 1.0), mi.Vector3f(0, 0, -1)))
+        si.wi = mi.Vector3f(*[float(c) for c in direction(40.0, 10.0)])
+        si.wavelengths = mi.Spectrum(450.0, 520.0, 600.0, 680.0)
+        wo = mi.Vector3f(*[float(c) for c in direction(25.0, 160.0)])
+        return np.array(si.bsdf().eval(mi.BSDFContext(), si, wo)).ravel()
+
+    along_u = render_quad(None, 0.5)
+    # dp/du from the UVs is the surface tangent: same as no attribute.
+    np.testing.assert_allclose(render_quad("uv", 0.5), along_u, rtol=1e-5)
+    # A barb along +y with the barbule at 0° is the same axis as barb along +x turned by 90°.
+    np.testing.assert_allclose(render_quad([0.0, 1.0, 0.0], 0.0), along_u, rtol=1e-4)
+    assert not np.allclose(render_quad([0.0, 1.0, 0.0], 0.5), along_u, rtol=1e-2)
