@@ -1,0 +1,85 @@
+"""``pavonine convert RECIPE… -o OUTDIR``: feather recipes → USD component assets."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from pavonine.pipeline.errors import EXIT_BAD_INPUT, one_line_errors
+
+EXIT_INTERNAL = 1
+
+
+@click.command("convert")
+@click.argument("recipes", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option(
+    "-o",
+    "--outdir",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Assets are written to OUTDIR/<name>/<name>.usd.",
+)
+@click.option(
+    "-j",
+    "--jobs",
+    default=1,
+    show_default=True,
+    type=click.IntRange(1, 64),
+    help="Convert this many recipes at once, in worker processes.",
+)
+@click.option("--force", is_flag=True, help="Replace assets that already exist.")
+@one_line_errors
+def convert(recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool) -> None:
+    """Convert feather RECIPEs (TOML: maps, material, geometry) into USD assets.
+
+    Each asset is written atomically; a failing recipe does not stop the others, and the
+    summary names every failure. Exit status: 0 all converted, 2 bad input, 1 internal error.
+    Recipe reference: docs/pipeline.md.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from pavonine.pipeline.convert import convert_many
+
+    console = Console(stderr=True)
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as progress:
+        task = progress.add_task("converting", total=len(recipes))
+
+        def on_stage(recipe: str, stage: str) -> None:
+            progress.update(task, description=f"{Path(recipe).name}: {stage}")
+
+        def on_done(result) -> None:
+            progress.advance(task)
+
+        results = convert_many(
+            list(recipes),
+            outdir,
+            jobs=jobs,
+            force=force,
+            on_done=on_done,
+            on_stage=on_stage if jobs == 1 else None,
+        )
+
+    failed = [r for r in results if not r.ok]
+    if len(recipes) == 1 and failed:
+        click.echo(f"error: {failed[0].error}", err=True)
+        sys.exit(EXIT_BAD_INPUT if failed[0].bad_input else EXIT_INTERNAL)
+    for r in results:
+        if r.ok:
+            tris = "/".join(f"{r.triangles[lod]:,}" for lod in ("high", "medium", "low"))
+            total = sum(r.seconds.values())
+            click.echo(f"ok      {r.root}  (triangles high/medium/low {tris}; {total:.1f} s)")
+    for r in failed:
+        click.echo(f"FAILED  {r.recipe}: {r.error}", err=True)
+    click.echo(f"{len(results) - len(failed)} converted, {len(failed)} failed", err=bool(failed))
+    if failed:
+        sys.exit(EXIT_INTERNAL if any(not r.bad_input for r in failed) else EXIT_BAD_INPUT)

@@ -1,0 +1,243 @@
+"""``pavonine convert``: recipes in, feather component assets out (one, or many in parallel).
+
+One recipe runs the stages
+
+    maps → mesh (silhouette-cut vane, rachis) → atlas (xatlas, coarse) →
+    refine+displace (high LOD) → lods (medium, low: refine + quadric decimation) → write
+
+and its asset appears atomically. Many recipes run in worker processes (``jobs``); one
+failing recipe does not stop the others and the summary names each failure.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pavonine.materials.parameters import ParameterError
+from pavonine.pipeline.asset import LODS, staging_folder, write_asset
+from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.feather_mesh import (
+    RACHIS_SHARE,
+    FeatherFrame,
+    MeshData,
+    RachisSpec,
+    build_base,
+    build_lod,
+)
+from pavonine.pipeline.map_io import read_map
+from pavonine.pipeline.maps import MAP_NAMES
+from pavonine.pipeline.recipe import Recipe, parse_recipe
+
+STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "write")
+
+#: Two maps have "equal aspect" when width/height differ by less than this fraction.
+ASPECT_TOLERANCE = 0.01
+
+
+@dataclass
+class ConvertResult:
+    """Outcome of one recipe: the root layer, triangles per LOD and seconds per stage."""
+
+    recipe: str
+    name: str = ""
+    root: Path | None = None
+    triangles: dict[str, int] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+    error: str | None = None
+    bad_input: bool = False
+    meshes: dict[str, list[MeshData]] | None = None  # only with ``keep_meshes``
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+class _Timer:
+    def __init__(self, sink: dict[str, float], report: Callable[[str], None] | None):
+        self.sink = sink
+        self.report = report
+
+    def stage(self, name: str):
+        timer = self
+
+        class _Stage:
+            def __enter__(self):
+                if timer.report:
+                    timer.report(name)
+                self.start = time.perf_counter()
+
+            def __exit__(self, *exc):
+                timer.sink[name] = timer.sink.get(name, 0.0) + time.perf_counter() - self.start
+
+        return _Stage()
+
+
+def load_maps(recipe: Recipe) -> dict[str, np.ndarray]:
+    """Read the six maps and check them together (equal aspect; a visible silhouette)."""
+    maps = {name: read_map(recipe.maps[name], f"maps.{name}") for name in MAP_NAMES}
+    check_maps(recipe, maps)
+    return maps
+
+
+def check_maps(recipe: Recipe, maps: dict[str, np.ndarray]) -> None:
+    """Raise :class:`InputError` naming the file and field for maps that cannot make a feather."""
+    ref_h, ref_w = maps["alpha"].shape
+    ref_aspect = ref_w / ref_h
+    for name in MAP_NAMES:
+        h, w = maps[name].shape
+        if abs((w / h) / ref_aspect - 1.0) > ASPECT_TOLERANCE:
+            raise InputError(
+                f"{recipe.maps[name]}: maps.{name}",
+                f"aspect {w}x{h} differs from the alpha map's {ref_w}x{ref_h}; "
+                "all six maps must have the same width:height",
+            )
+    threshold = recipe.geometry.alpha_threshold
+    if float(maps["alpha"].max()) <= threshold:
+        raise InputError(
+            f"{recipe.maps['alpha']}: maps.alpha",
+            f"fully transparent (no pixel above the cut threshold {threshold})",
+        )
+
+
+def build_meshes(
+    recipe: Recipe,
+    maps: dict[str, np.ndarray],
+    timer: _Timer,
+) -> dict[str, list[MeshData]]:
+    """The three LODs of a recipe's feather (stages mesh, atlas, refine+displace, lods)."""
+    opts = recipe.geometry
+    height, width = maps["alpha"].shape
+    frame = FeatherFrame(opts.length_cm, width / height, opts.bend_cm, opts.cup_cm)
+    rachis = RachisSpec(
+        opts.calamus_cm, opts.rachis_length, opts.rachis_radius_cm, opts.rachis_tip_radius_cm
+    )
+    with timer.stage("mesh"):
+        try:
+            geo, atlas_seconds = build_base(
+                maps["alpha"],
+                maps["displacement"],
+                frame,
+                rachis,
+                opts.displacement_cm,
+                opts.alpha_threshold,
+                base_triangles_for(opts.base_triangles, opts.lod.high),
+                rachis_triangles=round(RACHIS_SHARE * opts.lod.low),
+            )
+        except ValueError as exc:
+            raise InputError(f"{recipe.maps['alpha']}: maps.alpha", str(exc)) from None
+    # build_base times xatlas itself; book it under "atlas", not "mesh".
+    timer.sink["mesh"] -= atlas_seconds
+    timer.sink["atlas"] = timer.sink.get("atlas", 0.0) + atlas_seconds
+    lods: dict[str, list[MeshData]] = {}
+    with timer.stage("refine+displace"):
+        lods["high"] = build_lod(geo, opts.lod.high, decimate=False)
+    with timer.stage("lods"):
+        lods["medium"] = build_lod(geo, opts.lod.medium, decimate=True)
+        lods["low"] = build_lod(geo, opts.lod.low, decimate=True)
+    return lods
+
+
+def base_triangles_for(preferred: int, high: int) -> int:
+    """Coarse-mesh size so that regular refinement lands on the high target: ``high / n²``
+    with ``n`` the whole number of splits nearest to ``√(high / preferred)``."""
+    vane_high = (1.0 - RACHIS_SHARE) * high
+    n = max(1, round((vane_high / preferred) ** 0.5))
+    return max(200, round(vane_high / n**2))
+
+
+def convert_recipe(
+    recipe_path: str | os.PathLike,
+    outdir: str | os.PathLike,
+    *,
+    force: bool = False,
+    report: Callable[[str], None] | None = None,
+    keep_meshes: bool = False,
+) -> ConvertResult:
+    """Convert one recipe into ``outdir/<name>/``. Raises :class:`InputError` for bad input.
+
+    ``keep_meshes`` returns the LOD meshes in the result (for benchmarks and tests).
+    """
+    result = ConvertResult(str(recipe_path))
+    timer = _Timer(result.seconds, report)
+    recipe = parse_recipe(recipe_path)
+    result.name = recipe.name
+    outdir = Path(outdir)
+    target = outdir / recipe.name
+    if target.exists() and not force:
+        raise InputError(str(target), "asset exists; pass --force to replace it")
+    with timer.stage("maps"):
+        maps = load_maps(recipe)
+    lods = build_meshes(recipe, maps, timer)
+    with timer.stage("write"), staging_folder(outdir, recipe.name, force) as folder:
+        try:
+            write_asset(folder, recipe.name, recipe.version, recipe.material, recipe.maps, lods)
+        except ParameterError as exc:
+            raise InputError(f"{recipe.path}: material.{exc.field}", exc.reason) from None
+    result.root = target / f"{recipe.name}.usd"
+    result.triangles = {lod: sum(m.triangle_count for m in lods[lod]) for lod in LODS}
+    if keep_meshes:
+        result.meshes = lods
+    return result
+
+
+def _convert_safely(
+    recipe_path: str, outdir: str, force: bool, report: Callable[[str], None] | None = None
+) -> ConvertResult:
+    """Worker entry point: never raises; failures come back in the result."""
+    try:
+        return convert_recipe(recipe_path, outdir, force=force, report=report)
+    except (InputError, ParameterError) as exc:
+        return ConvertResult(recipe_path, error=str(exc), bad_input=True)
+    except Exception as exc:  # a bug: keep the batch going, report where it happened
+        frame = traceback.extract_tb(exc.__traceback__)[-1]
+        where = f"{Path(frame.filename).name}:{frame.lineno}"
+        return ConvertResult(recipe_path, error=f"internal error ({where}): {exc!r}")
+
+
+def convert_many(
+    recipes: Sequence[str],
+    outdir: str | os.PathLike,
+    *,
+    jobs: int = 1,
+    force: bool = False,
+    on_done: Callable[[ConvertResult], None] | None = None,
+    on_stage: Callable[[str, str], None] | None = None,
+) -> list[ConvertResult]:
+    """Convert every recipe; ``jobs > 1`` uses that many worker processes.
+
+    Results come back in the order of ``recipes``; ``on_done`` is called as each finishes
+    and ``on_stage(recipe, stage)`` (in-process runs only) as each stage starts.
+    """
+    outdir = str(outdir)
+    results: dict[int, ConvertResult] = {}
+    if jobs <= 1 or len(recipes) <= 1:
+        for i, path in enumerate(recipes):
+            report = None
+            if on_stage is not None:
+
+                def report(stage: str, path: str = path) -> None:
+                    on_stage(path, stage)
+
+            results[i] = _convert_safely(path, outdir, force, report)
+            if on_done:
+                on_done(results[i])
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futures = {
+                pool.submit(_convert_safely, path, outdir, force): i
+                for i, path in enumerate(recipes)
+            }
+            for future in as_completed(futures):
+                i = futures[future]
+                results[i] = future.result()
+                if on_done:
+                    on_done(results[i])
+    return [results[i] for i in range(len(recipes))]

@@ -1,0 +1,125 @@
+"""Reading and writing the feather's data maps (paper §3.3) through OpenImageIO.
+
+Maps are single-channel *data*, never colour: they are written as 16-bit PNG (or half-float
+EXR) tagged ``oiio:ColorSpace = "Raw"`` and read back as float32 in [0, 1] without any
+colour transform. Arrays are indexed ``[row, column]`` with row 0 the *top* of the image,
+as image files store them; feather space puts ``v = 0`` at the image's bottom row
+(see :func:`sample_bilinear`).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+from scipy import ndimage
+
+from pavonine.pipeline.errors import InputError
+
+#: Colour space written into every map (data, not colour).
+DATA_COLORSPACE = "Raw"
+
+#: Rec. 709 luma weights, used only when someone hands us an RGB(A) "grey" map.
+_REC709_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+
+
+def write_map(path: str | os.PathLike, values: np.ndarray, *, description: str = "") -> None:
+    """Write a 2-D array of values in [0, 1] as a single-channel data map.
+
+    ``.png`` → 16-bit unsigned integer; ``.exr`` → half float (zip). Values are clipped to
+    [0, 1]; NaN is rejected. The file appears atomically (written beside, then renamed).
+    """
+    path = Path(path)
+    values = np.asarray(values, dtype=np.float32)
+    if values.ndim != 2:
+        raise ValueError(f"{path}: a map is a 2-D array, got shape {values.shape}")
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{path}: map contains NaN or infinite values")
+    height, width = values.shape
+    suffix = path.suffix.lower()
+    if suffix == ".png":
+        spec = oiio.ImageSpec(width, height, 1, oiio.UINT16)
+        pixels = np.round(np.clip(values, 0.0, 1.0) * 65535.0).astype(np.uint16)
+    elif suffix == ".exr":
+        spec = oiio.ImageSpec(width, height, 1, oiio.HALF)
+        spec.attribute("compression", "zip")
+        pixels = np.clip(values, 0.0, 1.0).astype(np.float32)
+    else:
+        raise ValueError(f"{path}: maps are written as .png or .exr, not {suffix!r}")
+    spec.channelnames = ("Y",)
+    spec.attribute("oiio:ColorSpace", DATA_COLORSPACE)
+    spec.attribute("Software", "pavonine")
+    if description:
+        spec.attribute("ImageDescription", description)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None or not out.open(str(tmp), spec):
+        raise OSError(f"{path}: cannot open for writing: {oiio.geterror()}")
+    try:
+        # A 2-D array is misread by the Python binding; pass (rows, columns, channels).
+        if not out.write_image(np.ascontiguousarray(pixels[..., None])):
+            raise OSError(f"{path}: write failed: {out.geterror()}")
+    finally:
+        out.close()
+    os.replace(tmp, path)
+
+
+def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
+    """Read a grey map as float32 ``[row, column]`` in [0, 1]; ``field`` names it in errors.
+
+    Accepts 8/16-bit integer or float images; one channel (or grey+alpha: the grey is used);
+    RGB(A) is reduced to Rec. 709 luma. Pixel values are taken as stored (no colour
+    transform). Raises :class:`InputError` naming the file and field when unreadable,
+    empty or non-finite.
+    """
+    path = Path(path)
+    where = f"{path}: {field}"
+    if not path.is_file():
+        raise InputError(where, "file not found")
+    image = oiio.ImageInput.open(str(path))
+    if image is None:
+        raise InputError(where, f"unreadable image ({oiio.geterror().strip() or 'unknown format'})")
+    try:
+        spec = image.spec()
+        pixels = image.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+        error = image.geterror()
+    finally:
+        image.close()
+    if pixels is None or spec.width < 1 or spec.height < 1:
+        raise InputError(where, f"unreadable image ({error.strip() or 'no pixels'})")
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    if spec.nchannels >= 3:
+        grey = pixels[..., :3] @ _REC709_LUMA
+    else:
+        grey = pixels[..., 0]
+    if not np.all(np.isfinite(grey)):
+        raise InputError(where, "contains NaN or infinite values")
+    return np.clip(grey, 0.0, 1.0)
+
+
+def image_size(path: str | os.PathLike, field: str) -> tuple[int, int]:
+    """``(width, height)`` of an image header, raising :class:`InputError` if unreadable."""
+    image = oiio.ImageInput.open(str(path))
+    if image is None:
+        raise InputError(f"{path}: {field}", f"unreadable image ({oiio.geterror().strip()})")
+    spec = image.spec()
+    image.close()
+    return spec.width, spec.height
+
+
+def sample_bilinear(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of a map at feather-space coordinates.
+
+    ``feather_uv[:, 0] = u`` runs left → right across the image, ``feather_uv[:, 1] = v`` runs
+    bottom → top: ``(0, 0)`` is the bottom-left corner of the image's bottom-left pixel and
+    ``(1, 1)`` the top-right corner of its top-right pixel. Pixel centres sit at
+    ``((col + 0.5) / W, 1 - (row + 0.5) / H)``; lookups beyond the outer centres clamp.
+    """
+    height, width = values.shape
+    uv = np.asarray(feather_uv, dtype=np.float64)
+    cols = uv[:, 0] * width - 0.5
+    rows = (1.0 - uv[:, 1]) * height - 0.5
+    return ndimage.map_coordinates(values, [rows, cols], order=1, mode="nearest").astype(np.float32)

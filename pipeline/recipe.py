@@ -1,0 +1,298 @@
+"""Feather recipes: a TOML file naming the six maps, the material and the geometry options.
+
+The smallest recipe is a name, the six maps and a preset; every other key has a default
+(``docs/pipeline.md`` lists them all). Unknown keys and bad values are errors that name the
+recipe file and the dotted key (``InputError``), so a typo never silently falls back to a
+default.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from pavonine.materials.parameters import (
+    AXES,
+    FeatherParameters,
+    LayerStack,
+    OcellarClass,
+    ParameterError,
+    preset,
+)
+from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.maps import MAP_NAMES
+
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class LodTargets:
+    """Target triangle counts (vane + rachis) of the three levels of detail."""
+
+    high: int = 100_000
+    medium: int = 25_000
+    low: int = 5_000
+
+
+@dataclass(frozen=True)
+class GeometryOptions:
+    """Geometry options of a recipe (``[geometry]``); lengths in centimetres."""
+
+    length_cm: float = (
+        30.0  # length of the mapped area (the maps' height); width follows the aspect
+    )
+    rachis_length: float = 0.9  # fraction of the mapped length the rachis runs up the vane
+    calamus_cm: float = 2.0  # bare shaft (quill) below the vane
+    rachis_radius_cm: float = 0.12  # at the base; tapers toward the tip
+    rachis_tip_radius_cm: float = 0.025
+    bend_cm: float = 1.5  # sagitta of the feather's curve along its length (toward -z)
+    cup_cm: float = 0.4  # how far the vane edges curl back across the width (toward -z)
+    displacement_cm: float = 0.05  # height of the barb streaks at displacement 1
+    alpha_threshold: float = 0.25  # alpha (box-filtered to the mesh pitch) where the vane is cut
+    base_triangles: int = 6_000  # coarse mesh atlased by xatlas before refinement
+    lod: LodTargets = field(default_factory=LodTargets)
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A parsed, checked feather recipe. Map paths are absolute."""
+
+    path: Path
+    name: str
+    maps: dict[str, Path]
+    material: FeatherParameters
+    geometry: GeometryOptions
+    version: str = "1.0"
+    preset_name: str = "paper-table1"
+
+    @property
+    def label(self) -> str:
+        return str(self.path)
+
+
+_MATERIAL_SCALARS = {
+    "melanin_index": float,
+    "medium_index": float,
+    "crescent_sigma_deg": float,
+    "block_sigma_deg": float,
+    "rod_length_um": float,
+    "interference": str,
+    "melanin_color": list,
+}
+_STACK_KEYS = {"interval": "interval", "radius": "radius", "count": "count"}
+
+
+def _fail(path: Path, key: str, message: str) -> InputError:
+    return InputError(f"{path}: {key}", message)
+
+
+def _check_keys(path: Path, table: dict, allowed: set[str], prefix: str) -> None:
+    for key in table:
+        if key not in allowed:
+            dotted = f"{prefix}{key}"
+            raise _fail(path, dotted, f"unknown key (allowed here: {', '.join(sorted(allowed))})")
+
+
+def _number(path: Path, key: str, value: Any, *, positive: bool = True, integer=False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _fail(path, key, f"expected a number, got {value!r}")
+    if integer and not isinstance(value, int):
+        raise _fail(path, key, f"expected an integer, got {value!r}")
+    if math.isnan(value) or math.isinf(value):
+        raise _fail(path, key, f"must be finite, got {value}")
+    if positive and value <= 0:
+        raise _fail(path, key, f"must be positive, got {value}")
+    if not positive and value < 0:
+        raise _fail(path, key, f"must not be negative, got {value}")
+    return value
+
+
+def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
+    defaults = GeometryOptions()
+    allowed = {f.name for f in fields(GeometryOptions)}
+    _check_keys(path, table, allowed, "geometry.")
+    values: dict[str, Any] = {}
+    for f in fields(GeometryOptions):
+        if f.name not in table:
+            continue
+        key = f"geometry.{f.name}"
+        raw = table[f.name]
+        if f.name == "lod":
+            if not isinstance(raw, dict):
+                raise _fail(path, key, "expected a table [geometry.lod]")
+            _check_keys(path, raw, {"high", "medium", "low"}, "geometry.lod.")
+            lod = {k: int(_number(path, f"{key}.{k}", v, integer=True)) for k, v in raw.items()}
+            targets = LodTargets(**lod)
+            if not targets.high >= targets.medium >= targets.low >= 100:
+                raise _fail(
+                    path, key, f"need high >= medium >= low >= 100 triangles, got {targets}"
+                )
+            values["lod"] = targets
+        elif f.name == "base_triangles":
+            values[f.name] = int(_number(path, key, raw, integer=True))
+            if not 200 <= values[f.name] <= 60_000:
+                raise _fail(path, key, f"must lie in [200, 60000], got {raw}")
+        elif f.name in ("bend_cm", "cup_cm", "displacement_cm", "calamus_cm"):
+            values[f.name] = float(_number(path, key, raw, positive=False))
+        else:
+            values[f.name] = float(_number(path, key, raw))
+    options = GeometryOptions(
+        **{**{f.name: getattr(defaults, f.name) for f in fields(defaults)}, **values}
+    )
+    if not 0.0 < options.rachis_length <= 1.0:
+        raise _fail(
+            path, "geometry.rachis_length", f"must lie in (0, 1], got {options.rachis_length}"
+        )
+    if not 0.0 < options.alpha_threshold < 1.0:
+        raise _fail(
+            path, "geometry.alpha_threshold", f"must lie in (0, 1), got {options.alpha_threshold}"
+        )
+    if options.rachis_tip_radius_cm > options.rachis_radius_cm:
+        raise _fail(path, "geometry.rachis_tip_radius_cm", "must not exceed rachis_radius_cm")
+    return options
+
+
+def _stack_end(value: Any, end: int) -> Any:
+    return value[end] if isinstance(value, list) else value
+
+
+def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> FeatherParameters:
+    """``[material.class.<k>.<axis>]`` tables override Table 1 cells: value or [black, white]."""
+    classes = list(params.classes)
+    for index_key, axes in table.items():
+        prefix = f"material.class.{index_key}"
+        if not index_key.isdigit() or int(index_key) >= len(classes):
+            raise _fail(
+                path, prefix, f"unknown class; the preset has classes 0..{len(classes) - 1}"
+            )
+        if not isinstance(axes, dict):
+            raise _fail(path, prefix, "expected a table with 'long' and/or 'short'")
+        _check_keys(path, axes, set(AXES), f"{prefix}.")
+        k = int(index_key)
+        per_axis = {axis: getattr(classes[k], axis) for axis in AXES}
+        for axis, cells in axes.items():
+            if not isinstance(cells, dict):
+                raise _fail(path, f"{prefix}.{axis}", "expected a table of interval/radius/count")
+            _check_keys(path, cells, set(_STACK_KEYS), f"{prefix}.{axis}.")
+            for qty, value in cells.items():
+                key = f"{prefix}.{axis}.{qty}"
+                items = value if isinstance(value, list) else [value]
+                if len(items) not in (1, 2):
+                    raise _fail(path, key, "expected a number or [black, white]")
+                for item in items:
+                    _number(path, key, item)
+            ends = []
+            for end in (0, 1):
+                old = per_axis[axis][end]
+                ends.append(
+                    LayerStack(
+                        float(_stack_end(cells.get("interval", old.interval), end)),
+                        float(_stack_end(cells.get("radius", old.radius), end)),
+                        float(_stack_end(cells.get("count", old.count), end)),
+                    )
+                )
+            per_axis[axis] = tuple(ends)
+        classes[k] = OcellarClass(**per_axis)
+    return params.with_(classes=tuple(classes))
+
+
+_FIELD_RE = re.compile(r"^class\[(\d+)\]\.(long|short)\.(black|white)\.(\w+)$")
+
+
+def parameter_key(field_name: str) -> str:
+    """The recipe key of a :class:`ParameterError` field (``class[2].long.white.radius`` →
+    ``material.class.2.long.radius (white end)``)."""
+    match = _FIELD_RE.match(field_name)
+    if match:
+        k, axis, end, qty = match.groups()
+        return f"material.class.{k}.{axis}.{qty} ({end} end)"
+    return f"material.{field_name}"
+
+
+def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
+    allowed = {"preset", "class", *_MATERIAL_SCALARS}
+    _check_keys(path, table, allowed, "material.")
+    name = table.get("preset", "paper-table1")
+    if not isinstance(name, str):
+        raise _fail(path, "material.preset", f"expected a preset name, got {name!r}")
+    try:
+        params = preset(name)
+    except ParameterError as exc:
+        raise _fail(path, "material.preset", exc.reason) from None
+    changes: dict[str, Any] = {}
+    for key, kind in _MATERIAL_SCALARS.items():
+        if key not in table:
+            continue
+        value = table[key]
+        dotted = f"material.{key}"
+        if kind is float:
+            changes[key] = float(_number(path, dotted, value, positive=False))
+        elif kind is str:
+            if not isinstance(value, str):
+                raise _fail(path, dotted, f"expected a string, got {value!r}")
+            changes[key] = value
+        else:
+            if not (isinstance(value, list) and len(value) == 3):
+                raise _fail(path, dotted, "expected [r, g, b] (linear sRGB)")
+            changes[key] = tuple(float(_number(path, dotted, c, positive=False)) for c in value)
+    params = params.with_(**changes)
+    if "class" in table:
+        if not isinstance(table["class"], dict):
+            raise _fail(path, "material.class", "expected tables [material.class.<k>.<axis>]")
+        params = _parse_classes(path, params, table["class"])
+    try:
+        params.validate()
+    except ParameterError as exc:
+        raise _fail(path, parameter_key(exc.field), exc.reason) from None
+    return params, name
+
+
+def parse_recipe(path: str | os.PathLike) -> Recipe:
+    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
+    path = Path(path).resolve()
+    try:
+        with open(path, "rb") as handle:
+            data = tomllib.load(handle)
+    except FileNotFoundError:
+        raise InputError(str(path), "recipe not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(str(path), f"not valid TOML ({exc})") from None
+    except OSError as exc:
+        raise InputError(str(path), f"cannot read ({exc.strerror})") from None
+    _check_keys(path, data, {"name", "version", "maps", "material", "geometry"}, "")
+    if "name" not in data:
+        raise _fail(path, "name", 'missing (the asset\'s name, e.g. name = "eye_feather")')
+    name = data["name"]
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        raise _fail(
+            path, "name", f"must be a USD identifier ([A-Za-z_][A-Za-z0-9_]*), got {name!r}"
+        )
+    version = data.get("version", "1.0")
+    if not isinstance(version, str):
+        raise _fail(path, "version", f"expected a string, got {version!r}")
+    maps_table = data.get("maps")
+    if not isinstance(maps_table, dict):
+        raise _fail(path, "maps", "missing table [maps] naming the six maps")
+    _check_keys(path, maps_table, set(MAP_NAMES), "maps.")
+    maps: dict[str, Path] = {}
+    for map_name in MAP_NAMES:
+        if map_name not in maps_table:
+            raise _fail(path, f"maps.{map_name}", "missing")
+        value = maps_table[map_name]
+        if not isinstance(value, str) or not value:
+            raise _fail(path, f"maps.{map_name}", f"expected a file path, got {value!r}")
+        maps[map_name] = (path.parent / value).resolve()
+    material_table = data.get("material", {})
+    if not isinstance(material_table, dict):
+        raise _fail(path, "material", "expected a table [material]")
+    params, preset_name = _parse_material(path, material_table)
+    geometry_table = data.get("geometry", {})
+    if not isinstance(geometry_table, dict):
+        raise _fail(path, "geometry", "expected a table [geometry]")
+    geometry = _parse_geometry(path, geometry_table)
+    return Recipe(path, name, maps, params, geometry, version, preset_name)

@@ -1,0 +1,151 @@
+"""Procedural maps (paper §3.3): encodings, look, file format, the ``pavonine maps`` command."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+from click.testing import CliRunner
+
+from pavonine.pipeline.cli import cli
+from pavonine.pipeline.map_io import read_map, sample_bilinear, write_map
+from pavonine.pipeline.maps import (
+    KINDS,
+    MAP_NAMES,
+    angle_degrees,
+    angle_grey,
+    generate_maps,
+    ocellar_class,
+    ocellar_grey,
+)
+
+SIZE = 160
+
+
+@pytest.fixture(scope="module")
+def eye() -> dict[str, np.ndarray]:
+    return generate_maps("eye", SIZE, seed=3)
+
+
+def _at(values: np.ndarray, u: float, v: float) -> float:
+    return float(sample_bilinear(values, np.array([[u, v]]))[0])
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_every_kind_gives_six_maps_of_its_aspect_in_unit_range(kind):
+    maps = generate_maps(kind, SIZE, seed=0)
+    assert tuple(maps) == MAP_NAMES
+    expected = (SIZE, round(SIZE * KINDS[kind].aspect))
+    for name, values in maps.items():
+        assert values.shape == expected, name
+        assert values.dtype == np.float32
+        assert np.all((values >= 0) & (values <= 1)), name
+    alpha = maps["alpha"]
+    assert alpha[0, 0] == 0 and alpha[-1, -1] == 0  # corners are outside the feather
+    assert alpha[SIZE // 2, expected[1] // 2] > 0.5  # the middle is inside
+    assert maps["displacement"][0, 0] == 0 and maps["displacement"][-1, -1] == 0
+
+
+def test_maps_are_deterministic_per_seed():
+    a = generate_maps("blue", 64, seed=5)
+    b = generate_maps("blue", 64, seed=5)
+    c = generate_maps("blue", 64, seed=6)
+    assert all(np.array_equal(a[n], b[n]) for n in MAP_NAMES)
+    assert not np.array_equal(a["displacement"], c["displacement"])
+
+
+def test_ocellar_grey_levels_round_trip_for_six_and_one_class():
+    k = np.arange(6)
+    assert np.allclose(ocellar_grey(k), 1 - k / 5)
+    assert np.array_equal(ocellar_class(ocellar_grey(k)), k)
+    # Quantisation: the nearest level wins.
+    assert ocellar_class(np.array([1 - 2 / 5 + 0.09]))[0] == 2
+    assert np.all(ocellar_class(np.array([0.0, 0.3, 1.0]), classes=1) == 0)
+
+
+def test_angle_encoding_is_an_axis_mod_180():
+    assert np.allclose(angle_grey(np.array([0.0, 35.0, -35.0, 180.0])), [0, 35 / 180, 145 / 180, 0])
+    assert np.allclose(angle_degrees(angle_grey(np.array([30.0, 40.0]))), [30, 40], atol=1e-4)
+
+
+def test_eye_has_its_ocellus_rings_in_order(eye):
+    klass = ocellar_class(eye["ocellar"])
+    inside = eye["alpha"] > 0.5
+    assert set(np.unique(klass[inside])) == set(range(6))
+    # From the heart (the rachis' apex at v = 0.74) outward along the feather's axis.
+    centre = ocellar_class(np.array([_at(eye["ocellar"], 0.5, 0.745)]))[0]
+    assert centre == 5
+    path = [
+        ocellar_class(np.array([_at(eye["ocellar"], u, 0.75)]))[0]
+        for u in np.linspace(0.5, 0.78, 40)
+    ]
+    # Classes never increase walking outward: 5 (heart) → 4 → 3 → 2 → 1.
+    assert all(b <= a for a, b in itertools.pairwise(path))
+    assert path[0] == 5 and path[-1] <= 2
+    # The lower vane is the white class.
+    assert ocellar_class(np.array([_at(eye["ocellar"], 0.5, 0.2)]))[0] == 0
+
+
+def test_eye_melanin_fades_at_the_edge_and_gradation_rises_to_the_apex(eye):
+    melanin, alpha = eye["melanin"], eye["alpha"]
+    assert _at(melanin, 0.5, 0.74) > 0.95  # full structural colour in the eye
+    row = int(SIZE * (1 - 0.74))
+    edge_cols = np.nonzero(alpha[row] > 0.5)[0]
+    assert melanin[row, edge_cols[0]] < 0.5 and melanin[row, edge_cols[-1]] < 0.5
+    g = eye["gradation"]
+    assert _at(g, 0.5, 0.95) > _at(g, 0.5, 0.7) > _at(g, 0.5, 0.35)
+
+
+def test_eye_barbs_are_radial_around_the_eye():
+    """The streaks of the displacement map run radially around the eye: along a circle round
+    the eye centre the height oscillates (one crest per barb), along a ray it barely does."""
+    d = generate_maps("eye", 1024, seed=3)["displacement"]
+    aspect = d.shape[1] / d.shape[0]
+    t = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    r = 0.16
+    circle = np.column_stack([0.5 + r * np.sin(t) / aspect, 0.74 + r * np.cos(t)])
+    ring = sample_bilinear(d, circle)
+    ray = np.column_stack([np.full(200, 0.5 + 0.05 / aspect), 0.74 + np.linspace(0.1, 0.2, 200)])
+    along = sample_bilinear(d, ray)
+    assert np.std(np.diff(ring)) > 3 * np.std(np.diff(along))
+
+
+def test_png_round_trip_is_16_bit_raw_and_exr_is_tagged(tmp_path):
+    values = np.linspace(0, 1, 40 * 24, dtype=np.float32).reshape(40, 24)
+    write_map(tmp_path / "m.png", values)
+    spec = oiio.ImageInput.open(str(tmp_path / "m.png")).spec()
+    assert (spec.width, spec.height, spec.nchannels, spec.format) == (24, 40, 1, oiio.UINT16)
+    assert spec.get_string_attribute("Software") == "pavonine"
+    data = (tmp_path / "m.png").read_bytes()
+    assert b"sRGB" not in data and b"gAMA" not in data  # not tagged as colour
+    back = read_map(tmp_path / "m.png", "maps.test")
+    assert np.max(np.abs(back - values)) <= 0.5 / 65535 + 1e-7
+    write_map(tmp_path / "m.exr", values)
+    spec = oiio.ImageInput.open(str(tmp_path / "m.exr")).spec()
+    assert spec.get_string_attribute("oiio:ColorSpace").lower() in ("raw", "data")
+    assert np.max(np.abs(read_map(tmp_path / "m.exr", "maps.test") - values)) < 1e-3
+
+
+def test_sample_bilinear_puts_v0_at_the_bottom_row():
+    image = np.zeros((4, 2), np.float32)
+    image[-1, :] = 1.0  # bottom row
+    assert _at(image, 0.5, 0.01) == pytest.approx(1.0)
+    assert _at(image, 0.5, 0.99) == pytest.approx(0.0)
+
+
+def test_maps_command_writes_six_maps_and_a_contact_sheet(tmp_path):
+    out = tmp_path / "m"
+    result = CliRunner().invoke(cli, ["maps", "eye", str(out), "--size", "64", "--seed", "2"])
+    assert result.exit_code == 0, result.output
+    for name in MAP_NAMES:
+        assert read_map(out / f"{name}.png", name).shape == (64, 32)
+    sheet = oiio.ImageInput.open(str(out / "contact_sheet.png")).spec()
+    assert sheet.width > sheet.height > 100
+
+
+def test_maps_command_rejects_unknown_kind(tmp_path):
+    result = CliRunner().invoke(cli, ["maps", "ostrich", str(tmp_path / "m")])
+    assert result.exit_code == 2
+    assert not (tmp_path / "m").exists()

@@ -1,0 +1,111 @@
+"""Feather recipes: defaults, overrides, and one-line errors naming the file and the key."""
+
+from __future__ import annotations
+
+import pytest
+
+from pavonine.materials.parameters import preset
+from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.recipe import GeometryOptions, LodTargets, parse_recipe
+
+MINIMAL = """\
+name = "eye_feather"
+[maps]
+alpha = "m/alpha.png"
+ocellar = "m/ocellar.png"
+gradation = "m/gradation.png"
+angle = "m/angle.png"
+displacement = "m/displacement.png"
+melanin = "m/melanin.png"
+[material]
+preset = "paper-table1"
+"""
+
+
+def _write(tmp_path, text: str, name: str = "r.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _error(tmp_path, text: str) -> InputError:
+    path = _write(tmp_path, text)
+    with pytest.raises(InputError) as info:
+        parse_recipe(path)
+    assert str(path) in str(info.value)
+    assert "\n" not in str(info.value)
+    return info.value
+
+
+def test_minimal_recipe_takes_documented_defaults(tmp_path):
+    recipe = parse_recipe(_write(tmp_path, MINIMAL))
+    assert recipe.name == "eye_feather"
+    assert recipe.version == "1.0"
+    assert recipe.maps["alpha"] == (tmp_path / "m" / "alpha.png").resolve()  # relative to recipe
+    assert recipe.material == preset("paper-table1")
+    assert recipe.geometry == GeometryOptions()
+    assert recipe.geometry.lod == LodTargets(100_000, 25_000, 5_000)
+
+
+def test_overrides_reach_parameters_and_geometry(tmp_path):
+    text = MINIMAL + (
+        'crescent_sigma_deg = 12.5\ninterference = "intensity"\n'
+        "[material.class.3.long]\ninterval = [0.22, 0.18]\ncount = 6\n"
+        "[geometry]\nlength_cm = 12\nbend_cm = 0\n[geometry.lod]\nhigh = 9000\nmedium = 3000\nlow = 600\n"
+    )
+    recipe = parse_recipe(_write(tmp_path, text))
+    params = recipe.material
+    assert params.crescent_sigma_deg == pytest.approx(12.5)
+    assert params.interference == "intensity"
+    black, white = params.classes[3].long
+    assert (black.interval, white.interval) == pytest.approx((0.22, 0.18))
+    assert black.count == white.count == 6
+    assert black.radius == preset("paper-table1").classes[3].long[0].radius  # untouched cell
+    assert recipe.geometry.length_cm == 12 and recipe.geometry.bend_cm == 0
+    assert recipe.geometry.lod == LodTargets(9000, 3000, 600)
+
+
+@pytest.mark.parametrize(
+    ("before", "after", "key"),
+    [
+        ("colour = 1\n", "", "r.toml: colour"),
+        ("", "[geometry]\nlenght_cm = 3\n", "geometry.lenght_cm"),
+        ("", "crescent = 3\n", "material.crescent"),
+        ("", "[material.class.2.long]\nradious = 0.1\n", "material.class.2.long.radious"),
+        ("", "[geometry.lod]\nultra = 5\n", "geometry.lod.ultra"),
+    ],
+)
+def test_unknown_keys_are_rejected_naming_file_and_key(tmp_path, before, after, key):
+    error = _error(tmp_path, before + MINIMAL + after)
+    assert key in str(error)
+    assert "unknown key" in str(error)
+
+
+@pytest.mark.parametrize(
+    ("extra", "key", "words"),
+    [
+        ("[material.class.1.short]\nradius = -0.05\n", "material.class.1.short.radius", "positive"),
+        ("crescent_sigma_deg = nan\n", "material.crescent_sigma_deg", "finite"),
+        ("block_sigma_deg = 80.0\n", "material.block_sigma_deg", "at most"),
+        ("[material.class.7.long]\ncount = 3\n", "material.class.7", "unknown class"),
+        # rods that overlap (pi*a > 2d) are unphysical: ParameterError mapped to the recipe key
+        ("[material.class.0.long]\nradius = 0.2\n", "material.class.0.long.radius", "overlap"),
+        ("[geometry]\nlength_cm = -2\n", "geometry.length_cm", "positive"),
+        ("[geometry.lod]\nhigh = 100\nmedium = 500\nlow = 100\n", "geometry.lod", "high >="),
+    ],
+)
+def test_bad_values_name_the_key(tmp_path, extra, key, words):
+    error = _error(tmp_path, MINIMAL + extra)
+    assert key in str(error)
+    assert words in str(error)
+
+
+def test_missing_map_key_unknown_preset_and_bad_toml(tmp_path):
+    assert "maps.melanin" in str(
+        _error(tmp_path, MINIMAL.replace('melanin = "m/melanin.png"\n', ""))
+    )
+    assert "material.preset" in str(_error(tmp_path, MINIMAL.replace("paper-table1", "ostrich")))
+    assert "not valid TOML" in str(_error(tmp_path, MINIMAL + "[[[\n"))
+    assert "name" in str(_error(tmp_path, MINIMAL.replace('"eye_feather"', '"eye feather"')))
+    with pytest.raises(InputError, match="recipe not found"):
+        parse_recipe(tmp_path / "absent.toml")
