@@ -141,9 +141,8 @@ def write_material_layer(
     """Write the material layer; returns ``{mesh name: material path}`` for the bindings.
 
     The feather material is authored by ``pavonine.schemas.authoring.create_feather_material``
-    (PavonineFeatherAPI + derived MaterialX and UsdPreviewSurface shaders). Its preview alpha
-    texture is pointed at ``primvars:pavonine:featherUV``: the maps are in feather space, not in
-    the atlas ``st``.
+    (PavonineFeatherAPI + derived MaterialX and UsdPreviewSurface shaders), whose preview alpha
+    texture reads ``primvars:pavonine:featherUV``: the maps are in feather space, not the atlas ``st``.
     """
     from pxr import Gf, Sdf, UsdGeom, UsdShade
 
@@ -156,9 +155,6 @@ def write_material_layer(
     _layer_metadata(stage, name)
     feather_path = f"/{name}/Materials/Feather"
     material = authoring.create_feather_material(stage, feather_path, params, maps)
-    reader = stage.GetPrimAtPath(f"{feather_path}/{authoring.TEXCOORD_READER}")
-    if reader:
-        UsdShade.Shader(reader).GetInput("varname").Set(FEATHER_UV)
     material.GetPrim().SetDocumentation(
         "Peacock-feather barbules (Imamura et al.); maps are read at primvars:pavonine:featherUV."
     )

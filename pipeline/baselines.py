@@ -79,11 +79,11 @@ FLIP_NOISE_FACTOR = 2.0
 FLIP_MIN_THRESHOLD = 0.01
 
 #: Longer image side of CI renders (pixels); the shorter follows the stage's aspect ratio.
-CI_LONG_SIDE = 96
+CI_LONG_SIDE = 192
 #: The baseline itself: 4x the check's samples, so its noise adds only 1/4 to the check's variance.
-BASELINE_SETTINGS = RenderSettings(None, 256, 0)
+BASELINE_SETTINGS = RenderSettings(None, 512, 0)
 #: What ``check-renders`` renders: same size, another seed (a check must not replay the baseline).
-CHECK_SETTINGS = RenderSettings(None, 64, 1)
+CHECK_SETTINGS = RenderSettings(None, 128, 1)
 
 
 @dataclass

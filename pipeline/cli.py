@@ -15,6 +15,7 @@ from pavonine import __version__
 
 # command name -> "module:attribute"; one line per command.
 COMMANDS: dict[str, str] = {
+    "demo": "pavonine.pipeline.cmd_demo:demo",
     "doctor": "pavonine.pipeline.cmd_doctor:doctor",
     "spectra": "pavonine.pipeline.cmd_spectra:spectra",
     "figures": "pavonine.pipeline.cmd_figures:figures",

@@ -13,7 +13,6 @@ shader's ``inputs:fallback`` (or a neutral constant) is used instead.
 
 from __future__ import annotations
 
-import importlib
 import os
 from dataclasses import dataclass, field
 from typing import Any
@@ -93,28 +92,15 @@ def translate_material(
 def feather_bsdf(
     material: UsdShade.Material, time: Usd.TimeCode, diag: Diagnostics
 ) -> MaterialSpec:
-    """The feather BSDF for a ``PavonineFeatherAPI`` material.
+    """The spectral feather BSDF (``pavonine.render.feather_bsdf``) of a ``PavonineFeatherAPI`` material.
 
-    Uses ``pavonine.render.feather_bsdf`` (the spectral peacock-feather plugin) with the material's
-    parameters and six maps from ``pavonine.schemas.authoring``. While either module is missing
-    (during development) the material renders as a ``principled`` stand-in in its preview colour,
-    with one warning, so that scenes stay renderable.
+    Parameters and the six maps come from ``pavonine.schemas.authoring``; a map file that does not
+    exist gets one warning and the map's neutral value.
     """
+    from pavonine.render import feather_bsdf as plugin
+    from pavonine.schemas import authoring
+
     path = str(material.GetPath())
-    attributes = {BARB_TANGENT: "vertex_barb_tangent"}
-    try:
-        plugin = importlib.import_module("pavonine.render.feather_bsdf")
-        authoring = importlib.import_module("pavonine.schemas.authoring")
-    except ImportError as exc:
-        diag.warn(path, f"feather BSDF not available ({exc}); rendering a principled stand-in")
-        return MaterialSpec(
-            path,
-            _feather_stand_in(material, time, diag),
-            FEATHER_UV,
-            attributes,
-            two_sided=False,
-            is_feather=True,
-        )
     params = authoring.read_feather_parameters(material)
     maps = dict(authoring.resolve_maps(material))
     for name, file in list(maps.items()):
@@ -123,16 +109,8 @@ def feather_bsdf(
             maps[name] = None
     plugin.register()
     bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
+    attributes = {BARB_TANGENT: plugin.BARB_TANGENT_ATTRIBUTE}
     return MaterialSpec(path, bsdf, FEATHER_UV, attributes, two_sided=True, is_feather=True)
-
-
-def _feather_stand_in(material: UsdShade.Material, time: Usd.TimeCode, diag: Diagnostics) -> dict:
-    """Principled BSDF in the feather material's preview colour (peacock green if it has none)."""
-    shader = _surface_shader(material)
-    if shader is not None and shader.GetIdAttr().Get() == "UsdPreviewSurface":
-        bsdf, _uv = preview_surface_bsdf(shader, time, diag)
-        return bsdf
-    return {"type": "principled", "base_color": _rgb((0.05, 0.35, 0.25)), "roughness": 0.3}
 
 
 def preview_surface_bsdf(

@@ -53,6 +53,8 @@ SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
 MTLX_SHADER = "FeatherMtlx"
 PREVIEW_SHADER = "PreviewSurface"
 ALPHA_TEXTURE = "AlphaTexture"
+# The six maps live in feather space: meshes carry it as this primvar (the atlas `st` is for baking).
+FEATHER_UV_PRIMVAR = "pavonine:featherUV"
 TEXCOORD_READER = "TexCoordReader"
 MTLX_RENDER_CONTEXT = "mtlx"
 #: Class and gradation the preview colour is evaluated at (missing maps mean class 0, and the
@@ -271,7 +273,7 @@ def sync_derived_shaders(material: UsdShade.Material) -> None:
     if alpha is not None and alpha.path:
         reader = UsdShade.Shader.Define(stage, base.AppendChild(TEXCOORD_READER))
         reader.SetShaderId("UsdPrimvarReader_float2")
-        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(FEATHER_UV_PRIMVAR)
         reader_out = reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
         texture = UsdShade.Shader.Define(stage, base.AppendChild(ALPHA_TEXTURE))
         texture.SetShaderId("UsdUVTexture")
