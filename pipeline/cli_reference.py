@@ -35,7 +35,9 @@ def _sections(command: click.Command, ctx: click.Context, path: str) -> list[str
 
 def render_reference() -> str:
     """The Markdown reference of every registered command."""
-    with click.Context(cli, info_name="pavonine", **WIDTH) as ctx:
+    # The group's own context settings (``-h/--help``): click caches each command's help option,
+    # so a context built without them would render differently depending on what ran first.
+    with click.Context(cli, info_name="pavonine", **WIDTH, **cli.context_settings) as ctx:
         return "\n".join([HEADER, *_sections(cli, ctx, "pavonine")])
 
 

@@ -353,10 +353,18 @@ def _plugin_class(variant: str):
     return FeatherBSDF
 
 
+_registered: set[str] = set()
+
+
 def register() -> None:
     """Register the ``pavonine_feather`` BSDF with Mitsuba for the active (or default) variant."""
     backend = select_variant()
+    if backend.variant in _registered:
+        return
     import mitsuba as mi
 
     cls = _plugin_class(backend.variant)
     mi.register_bsdf(PLUGIN_NAME, lambda props: cls(props))
+    # Once per variant: registering again replaces the plugin's class object in Mitsuba while
+    # BSDFs made from the old registration are still alive (a crash at render time).
+    _registered.add(backend.variant)

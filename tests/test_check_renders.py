@@ -71,8 +71,9 @@ def dirs(repo: Path) -> list[str]:
 
 def test_baseline_update_writes_mean_variance_preview_and_record(fake_repo: Path):
     result = invoke(
-        "baseline", "update", "eye", "--spp", "256", "--check-spp", "64", *dirs(fake_repo)
-    )
+        "baseline", "update", "eye", "--resolution", "96x96", "--spp", "256", "--check-spp", "64",
+        *dirs(fake_repo),
+    )  # fmt: skip
     assert result.exit_code == 0, result.output
     folder = fake_repo / "baselines" / "eye"
     assert sorted(p.name for p in folder.iterdir()) == [
@@ -108,7 +109,8 @@ def test_baseline_update_rejects_unknown_scene_and_equal_seeds(fake_repo: Path):
 
 
 def test_check_renders_passes_then_catches_a_change_and_reports_it(fake_repo: Path):
-    assert invoke("baseline", "update", "--all", *dirs(fake_repo)).exit_code == 0
+    update = invoke("baseline", "update", "--all", "--resolution", "96x96", *dirs(fake_repo))
+    assert update.exit_code == 0
     result = invoke("check-renders", *dirs(fake_repo), "--report", str(fake_repo / "report"))
     assert result.exit_code == 0, result.output
     assert "2 scene(s) match their baselines" in result.output
