@@ -25,6 +25,15 @@ from pavonine.pipeline.baselines import (
 from pavonine.pipeline.errors import InputError, one_line_errors
 
 
+def store_options(command):
+    """``--scenes-dir`` and ``--baselines-dir``: where shipped scenes and their baselines live."""
+    directory = click.Path(file_okay=False, path_type=Path)
+    command = click.option(
+        "--baselines-dir", type=directory, default=BASELINES_DIR, help="Baseline folders."
+    )(command)
+    return click.option("--scenes-dir", type=directory, default=SCENES_DIR, help="Scenes.")(command)
+
+
 def parse_resolution(text: str) -> tuple[int, int]:
     """``64x48`` or ``64`` → (64, 48) / (64, 64)."""
     try:
@@ -69,10 +78,7 @@ def baseline() -> None:
     show_default=True,
     help="Seed CI renders with (must differ from --seed).",
 )
-@click.option("--scenes-dir", type=click.Path(file_okay=False, path_type=Path), default=SCENES_DIR)
-@click.option(
-    "--baselines-dir", type=click.Path(file_okay=False, path_type=Path), default=BASELINES_DIR
-)
+@store_options
 @one_line_errors
 def update(
     scenes: tuple[str, ...],
@@ -124,10 +130,7 @@ def update(
 
 
 @baseline.command("list")
-@click.option("--scenes-dir", type=click.Path(file_okay=False, path_type=Path), default=SCENES_DIR)
-@click.option(
-    "--baselines-dir", type=click.Path(file_okay=False, path_type=Path), default=BASELINES_DIR
-)
+@store_options
 @one_line_errors
 def list_baselines(scenes_dir: Path, baselines_dir: Path) -> None:
     """Show each shipped scene and the baseline it is checked against."""

@@ -9,7 +9,6 @@ import click
 
 from pavonine.pipeline.baselines import (
     BASELINES_DIR,
-    SCENES_DIR,
     SceneCheck,
     baseline_for,
     check_stage,
@@ -17,6 +16,7 @@ from pavonine.pipeline.baselines import (
     scene_name,
     shipped_scenes,
 )
+from pavonine.pipeline.cmd_baseline import store_options
 from pavonine.pipeline.compare import METHODS
 from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
 
@@ -105,10 +105,7 @@ def report_entries(checks: list[SceneCheck]):
     type=click.Path(dir_okay=False, path_type=Path),
     help="Write the numbers.",
 )
-@click.option("--scenes-dir", type=click.Path(file_okay=False, path_type=Path), default=SCENES_DIR)
-@click.option(
-    "--baselines-dir", type=click.Path(file_okay=False, path_type=Path), default=BASELINES_DIR
-)
+@store_options
 @one_line_errors
 def check_renders(
     scenes: tuple[str, ...],
