@@ -58,11 +58,21 @@ class DrJitOps:
         self.select = dr.select
         self.erf = dr.erf
 
+        # A table to gather from: the dynamic array of the variant (scalar variants' Float is a
+        # plain Python float, so their tables are ``dr.scalar.ArrayXf``).
+        self.Buffer = mi.Float if dr.is_jit_v(mi.Float) else dr.scalar.ArrayXf
+
     def asarray(self, x: Any):
         return self.Float(x)
 
+    def buffer(self, values: Any):
+        """A gather table holding ``values`` (a 1-D NumPy array or sequence)."""
+        return self.Buffer(np.asarray(values, dtype=np.float32).ravel())
+
     def gather(self, table, index):
-        return self.dr.gather(self.Float, table, self.UInt32(index))
+        if self.Buffer is self.Float:
+            return self.dr.gather(self.Float, table, self.UInt32(index))
+        return table[int(index)]  # scalar variant: one lane, plain indexing
 
 
 NUMPY = NumpyOps()

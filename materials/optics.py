@@ -129,6 +129,11 @@ def reflectance_spectra(
     wavelengths = check_wavelengths(wavelengths_nm)
     incidence = check_angle("incidence", incidence_deg)
     observe = np.array([check_angle("observe", o) for o in np.atleast_1d(observe_deg)])
+    if not math.isfinite(azimuth_deg):
+        raise ParameterError("azimuth", f"must be a finite angle, got {azimuth_deg}")
+    for name, value in (("gradation", gradation), ("structural_share", structural_share)):
+        if not 0.0 <= value <= 1.0:  # also rejects NaN
+            raise ParameterError(name, f"must lie in [0, 1], got {value}")
     model = model_for(params)
     wi = direction(incidence, azimuth_deg)
     wo = direction(observe, azimuth_deg + 180.0)[:, None, :]

@@ -17,12 +17,17 @@ AXES = ("long", "short")
 
 
 class ParameterError(ValueError):
-    """A physically meaningless parameter; ``field`` names it (e.g. ``class[2].long.radius``)."""
+    """A physically meaningless parameter; ``field`` names it (e.g. ``class[2].long.radius``).
 
-    def __init__(self, field_name: str, message: str):
+    ``kind`` classifies the problem (``NotFinite``, ``NotPositive``, ``TooFewLayers``,
+    ``RodsOverlap``, ``Invalid``) for tools that report findings by name, such as the USD validators.
+    """
+
+    def __init__(self, field_name: str, message: str, kind: str = "Invalid"):
         super().__init__(f"{field_name}: {message}")
         self.field = field_name
         self.reason = message
+        self.kind = kind
 
 
 def f32(value: float) -> float:
@@ -35,9 +40,11 @@ def check_finite_positive(name: str, value: float) -> None:
     if not isinstance(value, (int, float, np.floating, np.integer)) or isinstance(value, bool):
         raise ParameterError(name, f"expected a number, got {value!r}")
     if math.isnan(value):
-        raise ParameterError(name, "is NaN")
-    if not math.isfinite(value) or value <= 0:
-        raise ParameterError(name, f"must be positive and finite, got {value:.6g}")
+        raise ParameterError(name, "is NaN", "NotFinite")
+    if not math.isfinite(value):
+        raise ParameterError(name, f"must be finite, got {value}", "NotFinite")
+    if value <= 0:
+        raise ParameterError(name, f"must be positive, got {value:.6g}", "NotPositive")
 
 
 @dataclass(frozen=True)
@@ -62,12 +69,15 @@ class LayerStack:
         check_finite_positive(f"{name}.radius", self.radius)
         check_finite_positive(f"{name}.count", self.count)
         if self.count < 1:
-            raise ParameterError(f"{name}.count", f"must be >= 1 layer, got {self.count:.6g}")
+            raise ParameterError(
+                f"{name}.count", f"must be >= 1 layer, got {self.count:.6g}", "TooFewLayers"
+            )
         if math.pi * self.radius > 2.0 * self.interval * (1.0 + 1e-6):
             raise ParameterError(
                 f"{name}.radius",
-                f"rods overlap: pi*a = {math.pi * self.radius:.4f} um exceeds 2*d = "
-                f"{2 * self.interval:.4f} um (fill factor pi*a/(2d) > 1)",
+                f"rods overlap: pi*a = {math.pi * self.radius:.4g} um exceeds 2*d = "
+                f"{2 * self.interval:.4g} um (fill factor pi*a/(2d) > 1)",
+                "RodsOverlap",
             )
 
 

@@ -21,7 +21,9 @@ KIND_NAMES = ("eye", "blue", "yellow")
     type=click.IntRange(16, 16384),
     help="Pixels along the feather (map height); the width follows the kind's aspect.",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the noise.")
+@click.option(
+    "--seed", default=0, show_default=True, type=click.IntRange(min=0), help="Seed of the noise."
+)
 @click.option(
     "--format",
     "fmt",

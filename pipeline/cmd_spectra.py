@@ -6,6 +6,7 @@ import csv
 import json
 import math
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 
 import click
@@ -36,6 +37,12 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
         for name, value in (("--interval", interval), ("--radius", radius), ("--layers", layers)):
             if math.isnan(value):
                 raise InputError(name, "is NaN")
+        for name, value in (("--interval", interval), ("--radius", radius)):
+            if 0 < value < 1.0:
+                raise InputError(
+                    name,
+                    f"is in nanometres; {value:g} nm is below 1 nm (did you mean {value * 1000:g}?)",
+                )
         params = uniform_parameters(interval / 1000.0, radius / 1000.0, layers)
         label = f"d{interval:g}_a{radius:g}_n{layers:g}"
     else:
@@ -140,9 +147,6 @@ def spectra(
         preset_name, ocellar_class, interval, radius, layers, interference
     )
     observe_deg = _angles(observe)
-    for name, value in (("--gradation", gradation), ("--structural-share", structural_share)):
-        if not 0.0 <= value <= 1.0:
-            raise InputError(name, f"must lie in [0, 1], got {value}")
     kwargs = dict(
         ocellar_class=ocellar_class or 0,
         gradation=gradation,
@@ -153,21 +157,23 @@ def spectra(
 
     png = output_dir / f"spectra_{label}.png"
     csv_path = output_dir / f"spectra_{label}.csv"
-    with atomic_path(png) as tmp_png, atomic_path(csv_path) as tmp_csv:
+    json_file = json_target if json_target not in (None, "-") else None
+    with ExitStack() as outputs:  # all renamed into place together, or none
+        tmp_png = outputs.enter_context(atomic_path(png))
+        tmp_csv = outputs.enter_context(atomic_path(csv_path))
+        tmp_json = outputs.enter_context(atomic_path(json_file)) if json_file else None
         summaries = plots.figure5(tmp_png, params, label, incidence, observe_deg, **kwargs)
         with open(tmp_csv, "w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(["wavelength_nm", *[f"observe_{o:g}deg" for o in observe_deg]])
             for i, lam in enumerate(optics.PLOT_WAVELENGTHS_NM):
                 writer.writerow([f"{lam:g}", *[f"{c[i]:.6g}" for c in curves]])
-
-    summary = [s.as_json() for s in summaries]
+        summary = [s.as_json() for s in summaries]
+        if tmp_json is not None:
+            tmp_json.write_text(json.dumps(summary, indent=2))
     if json_target == "-":
         click.echo(json.dumps(summary, indent=2))
         return
-    if json_target:
-        with atomic_path(json_target) as tmp:
-            tmp.write_text(json.dumps(summary, indent=2))
     _print_table(label, incidence, summaries, sys.stdout.isatty())
     click.echo(f"wrote {png} and {csv_path}")
 

@@ -38,16 +38,29 @@ def one_line_errors(func: F) -> F:
         except (InputError, ParameterError) as exc:
             click.echo(f"error: {exc}", err=True)
             raise SystemExit(EXIT_BAD_INPUT) from None
+        except OSError as exc:  # unwritable output, a file where a folder should be, …
+            where = exc.filename if exc.filename is not None else "output"
+            click.echo(f"error: {where}: {exc.strerror or exc}", err=True)
+            raise SystemExit(EXIT_BAD_INPUT) from None
 
     return wrapper  # type: ignore[return-value]
 
 
 @contextmanager
 def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
-    """Yield a temporary path beside ``target``; rename it over ``target`` only on success."""
+    """Yield a temporary path beside ``target``; rename it over ``target`` only on success.
+
+    An ``OSError`` about the temporary file (or its folder) is reported as an
+    :class:`InputError` naming ``target``, which is what the user asked to write.
+    """
     target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent
+        )
+    except OSError as exc:
+        raise InputError(str(target), f"cannot write: {exc.strerror or exc}") from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -57,6 +70,10 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
             os.umask(umask)
             tmp_path.chmod(0o666 & ~umask)
         os.replace(tmp_path, target)
+    except OSError as exc:
+        if exc.filename not in (str(tmp_path), str(target)):
+            raise
+        raise InputError(str(target), f"cannot write: {exc.strerror or exc}") from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()

@@ -127,31 +127,26 @@ def feather_bsdf_dict(
     return bsdf
 
 
-def class_tables(params: FeatherParameters) -> dict:
+def class_tables(params: FeatherParameters, ops) -> dict:
     """Per-class (black, white) stack tables as Dr.Jit arrays, lengths in nm: ``{axis}_{quantity}``."""
-    import mitsuba as mi
-
     scale = {"interval": UM_TO_NM, "radius": UM_TO_NM, "count": 1.0}
     return {
-        key: mi.Float((value * scale[key.split("_")[1]]).ravel())
+        key: ops.buffer(value * scale[key.split("_")[1]])
         for key, value in params.class_arrays().items()
     }
 
 
-def gather_stacks(tables: dict, ocellar_class, gradation, active=True) -> list[tuple]:
+def gather_stacks(tables: dict, ocellar_class, gradation, ops) -> list[tuple]:
     """``[long, short]`` stacks ``(interval_nm, radius_nm, count)`` per lane: Table 1 lerped by gradation."""
-    import drjit as dr
-    import mitsuba as mi
-
-    base = mi.UInt32(ocellar_class) * 2
+    base = ocellar_class * 2
     stacks = []
     for axis in ("long", "short"):
         values = []
         for q in QUANTITIES:
             table = tables[f"{axis}_{q}"]
-            black = dr.gather(mi.Float, table, base, active)
-            white = dr.gather(mi.Float, table, base + 1, active)
-            values.append(dr.fma(white - black, gradation, black))
+            black = ops.gather(table, base)
+            white = ops.gather(table, base + 1)
+            values.append(black + (white - black) * gradation)
         stacks.append(tuple(values))
     return stacks
 
@@ -168,15 +163,15 @@ class JitMaterial:
         self.ops = DrJitOps()
         self.constants = MaterialConstants.from_parameters(params)
         table = RowTable.build(complex(params.melanin_index / params.medium_index))
-        self.table = RowTable(mi.Float(table.values), table.x_max, table.n_x, table.n_cos)
-        self.class_tables = class_tables(params)
+        self.table = RowTable(self.ops.buffer(table.values), table.x_max, table.n_x, table.n_cos)
+        self.class_tables = class_tables(params, self.ops)
         self.melanin_coefficients = [
             float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*params.melanin_color))
         ]
 
-    def stacks(self, ocellar_class, gradation, active=True) -> list[tuple]:
+    def stacks(self, ocellar_class, gradation) -> list[tuple]:
         """``[long, short]`` stacks per lane (see :func:`gather_stacks`)."""
-        return gather_stacks(self.class_tables, ocellar_class, gradation, active)
+        return gather_stacks(self.class_tables, ocellar_class, gradation, self.ops)
 
     def brdf(self, wi, wo, wavelength_nm, long_stack, short_stack, share):
         """BRDF (1/sr, no cosine) per lane for barbule-frame ``mi.Vector3f`` directions."""
@@ -244,7 +239,7 @@ def _plugin_class(variant: str):
             grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
             cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
             t = dr.clip(self._map("gradation", si, active), 0.0, 1.0)
-            stacks = self.material.stacks(cls, t, active)
+            stacks = self.material.stacks(cls, t)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
             if self.barb_tangents:
                 barb = si.sh_frame.to_local(

@@ -159,8 +159,8 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
     prim = _as_prim(material)
     arrays: dict[str, list] = {}
     lengths: dict[str, int] = {}
-    for (axis, field), (name, _vtype) in CLASS_ATTRS.items():
-        value = prim.GetAttribute(name).Get() if prim.HasAttribute(name) else None
+    for (axis, field), (name, vtype) in CLASS_ATTRS.items():
+        value = _typed_value(prim, name, vtype)
         if value is None:
             raise ParameterError(name, f"no value (is {SCHEMA_NAME} applied and known to USD?)")
         rows = [(float(v[0]), float(v[1])) for v in value]
@@ -172,8 +172,8 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
             "pavonine:long:layerInterval", f"per-class arrays must be equal and >= 1 long: {detail}"
         )
     scalars: dict[str, object] = {}
-    for field, (name, _vtype) in SCALAR_ATTRS.items():
-        value = prim.GetAttribute(name).Get() if prim.HasAttribute(name) else None
+    for field, (name, vtype) in SCALAR_ATTRS.items():
+        value = _typed_value(prim, name, vtype)
         if value is None:
             raise ParameterError(name, f"no value (is {SCHEMA_NAME} applied and known to USD?)")
         if field == "melanin_color":
@@ -195,8 +195,28 @@ def resolve_maps(material: Usd.Prim | UsdShade.Material) -> dict[str, str | None
     prim = _as_prim(material)
     out: dict[str, str | None] = {}
     for key, name in MAP_ATTRS.items():
-        out[key] = _resolved_path(prim.GetAttribute(name)) if prim.HasAttribute(name) else None
+        has_map = _typed_value(prim, name, Sdf.ValueTypeNames.Asset) is not None
+        out[key] = _resolved_path(prim.GetAttribute(name)) if has_map else None
     return out
+
+
+def _typed_value(prim: Usd.Prim, name: str, vtype: Sdf.ValueTypeName):
+    """The value of attribute ``name``; :class:`ParameterError` if authored with another type."""
+    attr = prim.GetAttribute(name)
+    if not attr:
+        return None
+    authored = authored_type(attr)
+    if authored is not None and authored != vtype:
+        raise ParameterError(name, f"is authored as {authored}, but the schema declares {vtype}")
+    return attr.Get()
+
+
+def authored_type(attr: Usd.Attribute) -> Sdf.ValueTypeName | None:
+    """The type the strongest layer wrote for ``attr`` (``attr.GetTypeName()`` reports the schema's)."""
+    for spec in attr.GetPropertyStack(Usd.TimeCode.Default()):
+        if spec.typeName:
+            return spec.typeName
+    return None
 
 
 def _resolved_path(attr: Usd.Attribute) -> str | None:
@@ -282,6 +302,10 @@ def sync_derived_shaders(material: UsdShade.Material) -> None:
         texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader_out)
         opacity.ConnectToSource(texture.CreateOutput("r", Sdf.ValueTypeNames.Float))
     else:
+        # No alpha map (any more): drop the reader chain a previous sync may have authored.
+        opacity.DisconnectSource()
+        for name in (TEXCOORD_READER, ALPHA_TEXTURE):
+            stage.RemovePrim(base.AppendChild(name))
         opacity.Set(1.0)
     preview_out = preview.CreateOutput("surface", Sdf.ValueTypeNames.Token)
     material.CreateSurfaceOutput().ConnectToSource(preview_out)

@@ -14,6 +14,7 @@ registers the task functions with ``RegisterPluginPrimValidator`` — the Python
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import sys
@@ -23,7 +24,7 @@ from dataclasses import asdict, dataclass
 from pxr import Usd, UsdShade, UsdValidation
 
 from pavonine.materials import materialx
-from pavonine.materials.parameters import AXES, INTERFERENCE_MODES
+from pavonine.materials.parameters import AXES, INTERFERENCE_MODES, LayerStack, ParameterError
 from pavonine.schemas import authoring
 from pavonine.schemas.plugin import SCHEMA_NAME, VALIDATOR_PLUGIN_NAME
 
@@ -76,9 +77,35 @@ def _error(
     return UsdValidation.ValidationError(name, severity, [site], message)
 
 
-def _get(prim: Usd.Prim, name: str):
+@functools.cache
+def _schema_definition() -> Usd.PrimDefinition | None:
+    return Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME)
+
+
+def _schema_type(name: str):
+    """The value type the schema declares for property ``name`` (None if not a schema property)."""
+    definition = _schema_definition()
+    spec = definition.GetAttributeDefinition(name) if definition else None
+    return spec.GetTypeName() if spec else None
+
+
+def _typed_attr(prim: Usd.Prim, name: str) -> Usd.Attribute | None:
+    """The attribute, unless it is authored with a type other than the schema's."""
     attr = prim.GetAttribute(name)
-    return attr.Get() if attr else None
+    if not attr:
+        return None
+    declared, authored = _schema_type(name), authoring.authored_type(attr)
+    return attr if declared is None or authored in (None, declared) else None
+
+
+def _get(prim: Usd.Prim, name: str):
+    """The attribute's value; the schema fallback where it is authored with the wrong type
+    (USD's own type-mismatch validator reports that)."""
+    attr = _typed_attr(prim, name)
+    if attr is not None:
+        return attr.Get()
+    definition = _schema_definition()
+    return definition.GetAttributeFallbackValue(name) if definition else None
 
 
 def _has_feather_api(prim: Usd.Prim) -> bool:
@@ -128,51 +155,22 @@ def _attr_of(axis: str, field: str) -> str:
 
 
 def _check_stack_values(prim: Usd.Prim, arrays: dict[str, list]) -> list:
+    """Each class end's stack, checked by :meth:`LayerStack.validate` (the rules the optics use)."""
     errors = []
     n = min(len(v) for v in arrays.values())
     for axis in AXES:
-        for field in ("interval", "radius", "count"):
-            rows = arrays.get(f"{axis}_{field}", [])
-            for k, row in enumerate(rows[:n]):
-                for end, value in zip(("black", "white"), row, strict=True):
-                    where = f"class {k} {end} end"
-                    if math.isnan(value) or not math.isfinite(value):
-                        errors.append(
-                            _error(prim, "NotFinite", f"{where} is {value}", _attr_of(axis, field))
-                        )
-                    elif value <= 0:
-                        errors.append(
-                            _error(
-                                prim,
-                                "NotPositive",
-                                f"{where} must be positive, got {value:g}",
-                                _attr_of(axis, field),
-                            )
-                        )
-                    elif field == "count" and value < 1:
-                        errors.append(
-                            _error(
-                                prim,
-                                "TooFewLayers",
-                                f"{where} must be >= 1 layer, got {value:g}",
-                                _attr_of(axis, field),
-                            )
-                        )
-        intervals = arrays.get(f"{axis}_interval", [])
-        radii = arrays.get(f"{axis}_radius", [])
-        for k in range(min(len(intervals), len(radii))):
+        columns = [arrays.get(f"{axis}_{q}") for q in ("interval", "radius", "count")]
+        if any(column is None for column in columns):
+            continue
+        for k in range(n):
             for e, end in enumerate(("black", "white")):
-                d, a = intervals[k][e], radii[k][e]
-                if d > 0 and a > 0 and math.pi * a > 2.0 * d * (1.0 + 1e-6):
-                    errors.append(
-                        _error(
-                            prim,
-                            "RodsOverlap",
-                            f"class {k} {end} end: rods overlap, pi*a = {math.pi * a:.4f} um > "
-                            f"2*d = {2 * d:.4f} um (fill factor pi*a/(2d) = {math.pi * a / (2 * d):.3f} > 1)",
-                            _attr_of(axis, "radius"),
-                        )
-                    )
+                stack = LayerStack(*(column[k][e] for column in columns))
+                try:
+                    stack.validate("stack")
+                except ParameterError as exc:
+                    quantity = exc.field.rsplit(".", 1)[1]
+                    message = f"class {k} {end} end: {exc.reason}"
+                    errors.append(_error(prim, exc.kind, message, _attr_of(axis, quantity)))
     return errors
 
 
@@ -343,7 +341,7 @@ def feather_maps(prim: Usd.Prim, time_range=None) -> list:
     errors = []
     sizes: dict[str, tuple[int, int]] = {}
     for name in authoring.MAP_ATTRS.values():
-        attr = prim.GetAttribute(name)
+        attr = _typed_attr(prim, name)  # a wrongly typed map is reported by feather_parameters
         value = attr.Get() if attr else None
         if value is None or not value.path:
             continue
@@ -414,13 +412,26 @@ def _same(a, b) -> bool:
         return float(a) == float(b)
 
 
+def _fmt(value) -> str:
+    """A value for a message: floats to 6 significant digits (USD values are float32)."""
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, (tuple, list)) or (
+        hasattr(value, "__len__") and not isinstance(value, str)
+    ):
+        return (
+            "(" + ", ".join(_fmt(float(v)) if isinstance(v, float) else str(v) for v in value) + ")"
+        )
+    return str(value)
+
+
 def feather_derived_shaders(prim: Usd.Prim, time_range=None) -> list:
     """The bound MaterialX and UsdPreviewSurface shaders agree with the schema attributes."""
     if prim.IsPseudoRoot() or not _has_feather_api(prim) or not prim.IsA(UsdShade.Material):
         return []
     try:
         params = authoring.read_feather_parameters(prim).validate()
-    except ValueError:
+    except (ValueError, TypeError):
         return []  # reported by feather_parameters; nothing sound to derive from
     material = UsdShade.Material(prim)
     errors = []
@@ -465,7 +476,7 @@ def feather_derived_shaders(prim: Usd.Prim, time_range=None) -> list:
                     _error(
                         mtlx.GetPrim(),
                         "DerivedValueDrift",
-                        f"is {authored}, but the schema attributes give {value} "
+                        f"is {_fmt(authored)}, but the schema attributes give {_fmt(value)} "
                         "(re-author with pavonine.schemas.authoring.sync_derived_shaders)",
                         f"inputs:{name}",
                     )

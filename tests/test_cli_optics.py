@@ -74,6 +74,9 @@ def test_spectra_explicit_structure_and_class(runner, tmp_path):
         (["--incidence", "nan"], "incidence: is NaN"),
         (["--class", "9"], "unknown class 9"),
         (["--preset", "green"], "unknown preset"),
+        (["--azimuth", "nan"], "azimuth"),
+        (["--gradation", "nan"], "gradation"),
+        (["--interval", "0.19", "--radius", "0.07", "--layers", "4"], "nanometres"),
     ],
 )
 def test_spectra_bad_input_is_one_line_exit_2_and_writes_nothing(runner, tmp_path, args, needle):
@@ -106,3 +109,33 @@ def test_doctor_reports_variant_and_versions(runner):
     assert info["packages"]["usd-core"] and info["packages"]["Mitsuba"]
     if info["variant"].startswith("llvm"):
         assert info["llvm_major"] >= 16
+
+
+def test_spectra_json_file_is_written_with_the_plot(runner, tmp_path):
+    target = tmp_path / "summary.json"
+    result = runner.invoke(
+        cli, ["spectra", "--preset", "yellow", "--json", str(target), "-o", str(tmp_path)]
+    )
+    assert result.exit_code == 0, result.output
+    assert [s["observe_deg"] for s in json.loads(target.read_text())][:2] == [15.0, 25.0]
+
+
+@pytest.mark.parametrize("command", ["spectra", "figures", "maps"])
+def test_output_below_a_file_is_one_line_exit_2(runner, tmp_path, command):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    args = {
+        "spectra": ["spectra", "--preset", "blue", "-o", str(blocker / "out")],
+        "figures": ["figures", str(blocker / "out")],
+        "maps": ["maps", "blue", str(blocker / "out"), "--size", "32"],
+    }[command]
+    result = runner.invoke(cli, args)
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:") and str(blocker) in lines[0]
+
+
+def test_maps_rejects_a_negative_seed(runner, tmp_path):
+    result = runner.invoke(cli, ["maps", "eye", str(tmp_path / "m"), "--seed", "-1"])
+    assert result.exit_code == 2 and "--seed" in result.output
+    assert not (tmp_path / "m").exists()

@@ -370,3 +370,24 @@ def test_preview_colour_follows_the_optics():
         colours[name] = tuple(shader.GetInput("diffuseColor").Get())
     yellow, blue = colours["yellow"], colours["blue"]
     assert yellow[0] > yellow[2] and blue[2] > blue[0]
+
+
+def test_removing_the_alpha_map_disconnects_the_preview_opacity():
+    from pxr import Usd, UsdShade
+
+    from pavonine.schemas.authoring import MAP_ATTRS, sync_derived_shaders
+
+    stage = Usd.Stage.CreateInMemory()
+    material = create_feather_material(
+        stage, "/Feather", preset("paper-table1"), {"alpha": "a.png"}
+    )
+    preview = UsdShade.Material(material).ComputeSurfaceSource()[0]
+    assert preview.GetInput("opacity").HasConnectedSource()
+    material.GetPrim().GetAttribute(MAP_ATTRS["alpha"]).Clear()
+    sync_derived_shaders(material)
+    opacity = preview.GetInput("opacity")
+    assert not opacity.HasConnectedSource() and opacity.Get() == 1.0
+    assert not any(
+        prim.GetName() in ("TexCoordReader", "AlphaTexture")
+        for prim in Usd.PrimRange(material.GetPrim())
+    )
