@@ -113,7 +113,7 @@ def swatch(linear_rgb: np.ndarray) -> np.ndarray:
 def xyz_to_lab(xyz: np.ndarray, white: np.ndarray | None = None) -> np.ndarray:
     """CIE 1976 L*a*b* (CIE 15:2004 §8.2.1) relative to ``white`` (default: D65 with Y = 1)."""
     if white is None:
-        white = xyz_to_linear_srgb_inverse(np.ones(3))
+        white = linear_srgb_to_xyz(np.ones(3))
     t = np.asarray(xyz, dtype=np.float64) / np.asarray(white, dtype=np.float64)
     delta = 6.0 / 29.0
     f = np.where(t > delta**3, np.cbrt(t), t / (3 * delta**2) + 4.0 / 29.0)
@@ -127,7 +127,7 @@ def xyz_to_lab(xyz: np.ndarray, white: np.ndarray | None = None) -> np.ndarray:
     )
 
 
-def xyz_to_linear_srgb_inverse(linear_rgb: np.ndarray) -> np.ndarray:
+def linear_srgb_to_xyz(linear_rgb: np.ndarray) -> np.ndarray:
     """Linear Rec.709 → XYZ (inverse of :func:`xyz_to_linear_srgb`)."""
     _, _, _, matrix = _mitsuba_tables()
     return np.asarray(linear_rgb, dtype=np.float64) @ np.linalg.inv(matrix).T
@@ -135,6 +135,6 @@ def xyz_to_linear_srgb_inverse(linear_rgb: np.ndarray) -> np.ndarray:
 
 def delta_e76(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
     """CIE 1976 colour difference ΔE*ab between two scene-linear Rec.709 colours."""
-    lab_a = xyz_to_lab(xyz_to_linear_srgb_inverse(rgb_a))
-    lab_b = xyz_to_lab(xyz_to_linear_srgb_inverse(rgb_b))
+    lab_a = xyz_to_lab(linear_srgb_to_xyz(rgb_a))
+    lab_b = xyz_to_lab(linear_srgb_to_xyz(rgb_b))
     return np.linalg.norm(lab_a - lab_b, axis=-1)

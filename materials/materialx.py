@@ -18,8 +18,9 @@ uses only MaterialX standard nodes, so any MaterialX renderer shows the feather'
    single hue, like the feather's.
 4. ``dielectric_bsdf`` (``thinfilm_thickness``/``thinfilm_ior``, MaterialX 1.39) per axis, mixed
    50/50 (Eq. 7 averaged over the barbule direction ψ), weighted by the structural share (melanin
-   map) and layered over an ``oren_nayar_diffuse_bsdf`` in the melanin colour. Roughness is the GGX
-   α for a slope standard deviation tan σ: ``α = √2·tan σ`` (σ = crescent / block sigma).
+   map) and layered over an ``oren_nayar_diffuse_bsdf`` in the melanin colour. Roughness is the
+   Beckmann α for a slope standard deviation tan σ, ``α = √2·tan σ`` (σ = crescent / block sigma),
+   used as GGX α (the two lobes match near their peak).
 
 Layer counts, rod length and the interference mode are carried for renderers that implement the
 full model (``pavonine render``); a single thin film cannot express them, so the graph ignores them.
@@ -189,7 +190,7 @@ class _Builder:
         iface = lambda name: ("interface", name)  # noqa: E731
         lobes = {}
         deg = math.pi / 180.0
-        # GGX α = √2·tan σ for slope standard deviation tan σ (Walter et al. 2007, §5.2).
+        # Beckmann α = √2·tan σ for slope deviation tan σ (Walter et al. 2007, Eq. 25), used as GGX α.
         alphas = []
         for sigma in ("crescent_sigma", "block_sigma"):
             rad = self.node("multiply", f"{sigma}_rad", "float", in1=iface(sigma), in2=deg)

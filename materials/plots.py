@@ -69,7 +69,7 @@ def figure7(path: Path, counts: Sequence[int] = (1, 2, 5, 10, 20)) -> None:
     ax.set_thetamax(90)
     ax.set_theta_zero_location("N")
     ax.set_title("Figure 7 (Eq. 3): rod rows, normalised at 0°", fontsize=10)
-    ax.legend(loc="lower left", bbox_to_anchor=(0.85, 0.0), fontsize=8)
+    ax.legend(loc="center left", bbox_to_anchor=(1.08, 0.5), fontsize=8)
     _save(fig, path)
 
 

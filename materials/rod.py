@@ -75,8 +75,9 @@ def row_reflectance(x: float, m: complex, cos_theta: np.ndarray) -> np.ndarray:
     a grating's zeroth order; BH §8.4, Twersky 1962) gives a plane wave of amplitude
     ``ρ = 2 T(π − 2θ) / (k L cos θ) = T(π − 2θ) / (x cos θ)`` for ``L = 2a``. The single-scattering
     amplitude is unbounded for dense rows, so the sheet's own re-radiation is included to lowest
-    order (the radiation-damping closure of a thin sheet, ``r = ρ / (1 − iρ)`` for a lossless sheet),
-    which gives ``R₁ = |ρ|² / (1 + |ρ|²)`` ≤ 1 (→ 1 at grazing incidence).
+    order. For a lossless sheet whose single-scattering amplitude is purely imaginary, ρ = −i|ρ|, the
+    radiation-damping closure ``r = ρ / (1 − iρ)`` gives exactly ``R₁ = |ρ|² / (1 + |ρ|²)``; Pavonine
+    uses this form for every ρ as an approximation. It is bounded by 1 and → 1 at grazing incidence.
     """
     cos_theta = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
     theta = np.arccos(cos_theta)

@@ -256,8 +256,9 @@ def preview_color(params: FeatherParameters) -> tuple[float, float, float]:
 def preview_roughness(params: FeatherParameters) -> float:
     """UsdPreviewSurface roughness for the crescent spread σ (Eq. 6).
 
-    GGX α = √2·tan σ for a slope standard deviation tan σ, and UsdPreviewSurface's perceptual
-    roughness r has α = r², so r = √α.
+    The Beckmann roughness for a slope standard deviation tan σ is α = √2·tan σ (Walter et al.
+    2007, Eq. 25); UsdPreviewSurface is GGX, whose lobe matches Beckmann's near its peak for the
+    same α, so α is used as the GGX α; its perceptual roughness r has α = r², so r = √α.
     """
     import math
 

@@ -93,7 +93,7 @@ def test_layer_interval_shift_moves_rendered_hue_like_the_model(white):
         rendered = _render_patch(feather_bsdf_dict(params)) / white
         expected = _predicted(params, 0)
         assert colour.delta_e76(rendered, expected) < 2.0
-        lab = colour.xyz_to_lab(colour.xyz_to_linear_srgb_inverse(rendered))
+        lab = colour.xyz_to_lab(colour.linear_srgb_to_xyz(rendered))
         hues[name] = math.degrees(math.atan2(lab[2], lab[1]))
     # A longer interval moves the Bragg peak to longer wavelengths: blue-green → green/yellow,
     # i.e. the CIELAB hue angle decreases from ~200° towards 100°.
