@@ -9,14 +9,16 @@ Layout of ``OUTDIR/NAME/`` (every path inside is ``./``-relative, so the folder 
     NAME_material.usda       /NAME/Materials/Feather (PavonineFeatherAPI, via
                              pavonine.schemas.authoring) and /NAME/Materials/Rachis
     NAME_geo_<lod>.usdc      /NAME/Geom/Vane and /NAME/Geom/Rachis meshes, bound to the materials
-    maps/<map>.<ext>         the six maps, copied
+    maps/<map>.<ext>         the six maps as read: single-channel 16-bit PNG (half EXR for
+                             float sources), RGB sources reduced to Rec. 709 luma
 
 The whole folder is first written beside its destination under a hidden temporary name and
-renamed into place only when complete (:func:`commit_asset`).
+renamed into place only when complete (:func:`staging_folder`, :func:`commit_asset`).
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import tempfile
@@ -30,6 +32,7 @@ import numpy as np
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.feather_mesh import MeshData
+from pavonine.pipeline.map_io import DataMap, write_map
 
 LODS = ("high", "medium", "low")
 METERS_PER_UNIT = 0.01  # centimetres
@@ -205,39 +208,78 @@ def write_root_layer(
     stage.GetRootLayer().Save()
 
 
-def copy_maps(sources: Mapping[str, Path], folder: Path) -> dict[str, str]:
-    """Copy the maps into ``folder/maps``; returns their ``./maps/<name><ext>`` asset paths."""
-    (folder / "maps").mkdir(parents=True, exist_ok=True)
+def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
+    """Write the maps as read (single-channel data, RGB already reduced to luma) into
+    ``folder/maps``; returns their ``./maps/<name><ext>`` asset paths.
+
+    The asset holds exactly the values the geometry was built from, so every reader (renderer,
+    validator, DCC) sees one channel whatever the source file had: 16-bit PNG, or half-float
+    EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.map_io.write_map`).
+    """
     out = {}
-    for key, source in sources.items():
-        target = folder / "maps" / f"{key}{source.suffix.lower()}"
-        shutil.copyfile(source, target)
+    for key, data in maps.items():
+        target = folder / "maps" / f"{key}{data.suffix}"
+        write_map(target, data.values, description=f"pavonine {key} map (paper section 3.3)")
         out[key] = f"./maps/{target.name}"
     return out
 
 
+def _existing_ancestor(path: Path) -> Path:
+    """``path`` itself or its nearest ancestor that exists."""
+    path = Path(os.path.abspath(path))
+    while not os.path.lexists(path) and path != path.parent:
+        path = path.parent
+    return path
+
+
+def check_outdir(outdir: Path) -> None:
+    """Raise :class:`InputError` when ``outdir`` cannot be a folder (a file on its path)."""
+    ancestor = _existing_ancestor(outdir)
+    if not ancestor.is_dir():
+        raise InputError(str(outdir), f"cannot make this folder: {ancestor} is not a folder")
+
+
 @contextmanager
 def staging_folder(outdir: Path, name: str, force: bool):
-    """Yield a hidden temporary folder beside ``outdir/name``; on success it replaces
-    ``outdir/name`` (which may exist only with ``force``); on failure it is removed."""
+    """Yield a hidden temporary folder for ``outdir/name``; on success it is renamed into place
+    (replacing an existing asset only with ``force``); on failure it is removed.
+
+    The folder sits in ``outdir``, or while that does not exist in its nearest existing
+    ancestor (the same file system, so the final rename is atomic): ``outdir`` is created only
+    when the asset is committed, and a failed conversion leaves nothing behind.
+    """
     target = outdir / name
     if target.exists() and not force:
         raise InputError(str(target), "asset exists; pass --force to replace it")
-    outdir.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}.tmp-", dir=outdir))
+    check_outdir(outdir)
+    staging = Path(tempfile.mkdtemp(prefix=f".{name}.tmp-", dir=_existing_ancestor(outdir)))
     umask = os.umask(0)
     os.umask(umask)
     staging.chmod(0o777 & ~umask)  # mkdtemp makes 0700; an asset folder is shared
     try:
         yield staging
-        commit_asset(staging, target)
+        outdir.mkdir(parents=True, exist_ok=True)
+        commit_asset(staging, target, force)
     finally:
         if staging.exists():
             shutil.rmtree(staging, ignore_errors=True)
 
 
-def commit_asset(staging: Path, target: Path) -> None:
-    """Move a finished asset folder into place, replacing an older one."""
+def commit_asset(staging: Path, target: Path, force: bool = False) -> None:
+    """Move a finished asset folder into place; an existing asset is replaced only with ``force``.
+
+    Without ``force`` the single ``rename`` is the existence check: the kernel refuses to
+    rename a folder onto a non-empty folder or a file, so of two writers racing for one name
+    the second fails instead of replacing the first.
+    """
+    if not force:
+        try:
+            os.rename(staging, target)
+        except OSError as exc:
+            if exc.errno in (errno.EEXIST, errno.ENOTEMPTY, errno.ENOTDIR, errno.EISDIR):
+                raise InputError(str(target), "asset exists; pass --force to replace it") from None
+            raise
+        return
     if not target.exists():
         os.replace(staging, target)
         return
@@ -257,12 +299,12 @@ def write_asset(
     name: str,
     version: str,
     params: FeatherParameters,
-    map_sources: Mapping[str, Path],
+    maps: Mapping[str, DataMap],
     lods: Mapping[str, Sequence[MeshData]],
 ) -> Path:
     """Write every layer of the asset into ``folder`` (a staging folder); returns the root."""
     names = AssetNames(name)
-    maps = copy_maps(map_sources, folder)
+    maps = write_maps(maps, folder)
     bindings = write_material_layer(folder / names.material, name, params, maps)
     extents = {}
     for lod in LODS:

@@ -44,6 +44,7 @@ def convert(recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool) -> N
     from pavonine.pipeline.convert import convert_many
 
     console = Console(stderr=True)
+    # Only a terminal gets the (transient) bar: in a log or a pipe it would leave a blank line.
     with Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -51,6 +52,7 @@ def convert(recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool) -> N
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,
     ) as progress:
         task = progress.add_task("converting", total=len(recipes))
 

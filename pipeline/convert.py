@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.materials.parameters import ParameterError
-from pavonine.pipeline.asset import LODS, staging_folder, write_asset
+from pavonine.pipeline.asset import LODS, check_outdir, staging_folder, write_asset
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.feather_mesh import (
     RACHIS_SHARE,
@@ -32,9 +32,9 @@ from pavonine.pipeline.feather_mesh import (
     build_base,
     build_lod,
 )
-from pavonine.pipeline.map_io import read_map
+from pavonine.pipeline.map_io import DataMap, read_data_map
 from pavonine.pipeline.maps import MAP_NAMES
-from pavonine.pipeline.recipe import Recipe, parse_recipe
+from pavonine.pipeline.recipe import Recipe, parameter_key, parse_recipe
 
 STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "write")
 
@@ -80,10 +80,10 @@ class _Timer:
         return _Stage()
 
 
-def load_maps(recipe: Recipe) -> dict[str, np.ndarray]:
+def load_maps(recipe: Recipe) -> dict[str, DataMap]:
     """Read the six maps and check them together (equal aspect; a visible silhouette)."""
-    maps = {name: read_map(recipe.maps[name], f"maps.{name}") for name in MAP_NAMES}
-    check_maps(recipe, maps)
+    maps = {name: read_data_map(recipe.maps[name], f"maps.{name}") for name in MAP_NAMES}
+    check_maps(recipe, {name: data.values for name, data in maps.items()})
     return maps
 
 
@@ -173,14 +173,15 @@ def convert_recipe(
     target = outdir / recipe.name
     if target.exists() and not force:
         raise InputError(str(target), "asset exists; pass --force to replace it")
+    check_outdir(outdir)
     with timer.stage("maps"):
         maps = load_maps(recipe)
-    lods = build_meshes(recipe, maps, timer)
+    lods = build_meshes(recipe, {name: data.values for name, data in maps.items()}, timer)
     with timer.stage("write"), staging_folder(outdir, recipe.name, force) as folder:
         try:
-            write_asset(folder, recipe.name, recipe.version, recipe.material, recipe.maps, lods)
+            write_asset(folder, recipe.name, recipe.version, recipe.material, maps, lods)
         except ParameterError as exc:
-            raise InputError(f"{recipe.path}: material.{exc.field}", exc.reason) from None
+            raise InputError(f"{recipe.path}: {parameter_key(exc.field)}", exc.reason) from None
     result.root = target / f"{recipe.name}.usd"
     result.triangles = {lod: sum(m.triangle_count for m in lods[lod]) for lod in LODS}
     if keep_meshes:
@@ -196,10 +197,31 @@ def _convert_safely(
         return convert_recipe(recipe_path, outdir, force=force, report=report)
     except (InputError, ParameterError) as exc:
         return ConvertResult(recipe_path, error=str(exc), bad_input=True)
+    except OSError as exc:  # unwritable output, a file where a folder should be, a full disk
+        where = exc.filename if exc.filename is not None else outdir
+        return ConvertResult(recipe_path, error=f"{where}: {exc.strerror or exc}", bad_input=True)
     except Exception as exc:  # a bug: keep the batch going, report where it happened
         frame = traceback.extract_tb(exc.__traceback__)[-1]
         where = f"{Path(frame.filename).name}:{frame.lineno}"
         return ConvertResult(recipe_path, error=f"internal error ({where}): {exc!r}")
+
+
+def check_unique_names(recipes: Sequence[str]) -> None:
+    """Raise :class:`InputError` when two recipes name the same asset (they would race for one
+    folder). Recipes that do not parse are left to fail on their own."""
+    seen: dict[str, str] = {}
+    for path in recipes:
+        try:
+            name = parse_recipe(path).name
+        except (InputError, ParameterError):
+            continue
+        if name in seen:
+            raise InputError(
+                f"{path}: name",
+                f"asset {name!r} is also made by {seen[name]}; "
+                "give each recipe of a batch its own name",
+            )
+        seen[name] = path
 
 
 def convert_many(
@@ -214,8 +236,10 @@ def convert_many(
     """Convert every recipe; ``jobs > 1`` uses that many worker processes.
 
     Results come back in the order of ``recipes``; ``on_done`` is called as each finishes
-    and ``on_stage(recipe, stage)`` (in-process runs only) as each stage starts.
+    and ``on_stage(recipe, stage)`` (in-process runs only) as each stage starts. Two recipes
+    naming the same asset raise :class:`InputError` before anything is converted.
     """
+    check_unique_names(recipes)
     outdir = str(outdir)
     results: dict[int, ConvertResult] = {}
     if jobs <= 1 or len(recipes) <= 1:

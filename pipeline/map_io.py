@@ -10,6 +10,7 @@ as image files store them; feather space puts ``v = 0`` at the image's bottom ro
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -67,14 +68,21 @@ def write_map(path: str | os.PathLike, values: np.ndarray, *, description: str =
     os.replace(tmp, path)
 
 
-def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
-    """Read a grey map as float32 ``[row, column]`` in [0, 1]; ``field`` names it in errors.
+@dataclass(frozen=True)
+class DataMap:
+    """A map as read: grey values ``[row, column]`` in [0, 1] and whether the file held floats."""
 
-    Accepts 8/16-bit integer or float images; one channel (or grey+alpha: the grey is used);
-    RGB(A) is reduced to Rec. 709 luma. Pixel values are taken as stored (no colour
-    transform). Raises :class:`InputError` naming the file and field when unreadable,
-    empty or non-finite.
-    """
+    values: np.ndarray
+    is_float: bool
+
+    @property
+    def suffix(self) -> str:
+        """The format the asset keeps it in: ``.exr`` (half) for float input, else ``.png`` (16-bit)."""
+        return ".exr" if self.is_float else ".png"
+
+
+def read_data_map(path: str | os.PathLike, field: str) -> DataMap:
+    """Read a grey map and note its pixel type; see :func:`read_map`."""
     path = Path(path)
     where = f"{path}: {field}"
     if not path.is_file():
@@ -97,17 +105,19 @@ def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
         grey = pixels[..., 0]
     if not np.all(np.isfinite(grey)):
         raise InputError(where, "contains NaN or infinite values")
-    return np.clip(grey, 0.0, 1.0)
+    is_float = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+    return DataMap(np.clip(grey, 0.0, 1.0), is_float)
 
 
-def image_size(path: str | os.PathLike, field: str) -> tuple[int, int]:
-    """``(width, height)`` of an image header, raising :class:`InputError` if unreadable."""
-    image = oiio.ImageInput.open(str(path))
-    if image is None:
-        raise InputError(f"{path}: {field}", f"unreadable image ({oiio.geterror().strip()})")
-    spec = image.spec()
-    image.close()
-    return spec.width, spec.height
+def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
+    """Read a grey map as float32 ``[row, column]`` in [0, 1]; ``field`` names it in errors.
+
+    Accepts 8/16-bit integer or float images; one channel (or grey+alpha: the grey is used);
+    RGB(A) is reduced to Rec. 709 luma. Pixel values are taken as stored (no colour
+    transform). Raises :class:`InputError` naming the file and field when unreadable,
+    empty or non-finite.
+    """
+    return read_data_map(path, field).values
 
 
 def sample_bilinear(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:

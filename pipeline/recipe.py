@@ -112,6 +112,26 @@ def _number(path: Path, key: str, value: Any, *, positive: bool = True, integer=
     return value
 
 
+#: Range of ``geometry.length_cm``: below it xatlas loses float32 precision and fails; above it
+#: (10 m) the displacement streaks drown in float32 rounding of the positions.
+LENGTH_RANGE_CM = (0.1, 1000.0)
+#: Upper bounds of the other lengths as a multiple of ``length_cm``. The base surface of
+#: ``feather_mesh.FeatherFrame`` (bend and cup sagittas, calamus below the vane) degenerates into a
+#: sliver that the atlas stage segfaults or hangs on far beyond them (``bend_cm``, ``cup_cm`` or
+#: ``calamus_cm = 1e6``); a feather whose shaft or barb streaks are a tenth of its length is
+#: already no feather.
+LENGTH_SHARES = {
+    "bend_cm": 1.0,
+    "cup_cm": 1.0,
+    "calamus_cm": 1.0,
+    "rachis_radius_cm": 0.1,
+    "displacement_cm": 0.1,
+}
+#: Most triangles a level of detail may ask for: four times the benchmark's 1 M-triangle high LOD
+#: (``benchmarks/bench_convert.py``); more would run for minutes and exhaust memory.
+MAX_LOD_TRIANGLES = 4_000_000
+
+
 def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
     defaults = GeometryOptions()
     allowed = {f.name for f in fields(GeometryOptions)}
@@ -127,6 +147,13 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
                 raise _fail(path, key, "expected a table [geometry.lod]")
             _check_keys(path, raw, {"high", "medium", "low"}, "geometry.lod.")
             lod = {k: int(_number(path, f"{key}.{k}", v, integer=True)) for k, v in raw.items()}
+            for k, v in lod.items():
+                if v > MAX_LOD_TRIANGLES:
+                    raise _fail(
+                        path,
+                        f"{key}.{k}",
+                        f"must be at most {MAX_LOD_TRIANGLES:,} triangles, got {v:,}",
+                    )
             targets = LodTargets(**lod)
             if not targets.high >= targets.medium >= targets.low >= 100:
                 raise _fail(
@@ -144,6 +171,24 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
     options = GeometryOptions(
         **{**{f.name: getattr(defaults, f.name) for f in fields(defaults)}, **values}
     )
+    low, high = LENGTH_RANGE_CM
+    if not low <= options.length_cm <= high:
+        raise _fail(
+            path,
+            "geometry.length_cm",
+            f"must lie in [{low:g}, {high:g}] cm, got {options.length_cm:g}",
+        )
+    for name, share in LENGTH_SHARES.items():
+        value = getattr(options, name)
+        bound = share * options.length_cm
+        if value > bound:
+            limit = "length_cm" if share == 1.0 else f"{share:g} x length_cm"
+            default = "" if name in table else " (the default; set it in [geometry])"
+            raise _fail(
+                path,
+                f"geometry.{name}",
+                f"must be at most {limit} = {bound:g} cm, got {value:g}{default}",
+            )
     if not 0.0 < options.rachis_length <= 1.0:
         raise _fail(
             path, "geometry.rachis_length", f"must lie in (0, 1], got {options.rachis_length}"
@@ -155,6 +200,19 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
     if options.rachis_tip_radius_cm > options.rachis_radius_cm:
         raise _fail(path, "geometry.rachis_tip_radius_cm", "must not exceed rachis_radius_cm")
     return options
+
+
+#: Most layers a recipe may give a stack: Table 1 has at most 16, and 1000 layers of a 0.2 µm
+#: interval make a 0.2 mm stack, far thicker than any barbule.
+MAX_LAYER_COUNT = 1000
+
+
+def _check_count(path: Path, key: str, value: float) -> None:
+    """Layer counts are whole numbers (the asset stores them as USD ``int2``)."""
+    if not float(value).is_integer():
+        raise _fail(path, key, f"a layer count must be a whole number, got {value!r}")
+    if value > MAX_LAYER_COUNT:
+        raise _fail(path, key, f"must be at most {MAX_LAYER_COUNT} layers, got {value:g}")
 
 
 def _stack_end(value: Any, end: int) -> Any:
@@ -186,6 +244,8 @@ def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> Feathe
                     raise _fail(path, key, "expected a number or [black, white]")
                 for item in items:
                     _number(path, key, item)
+                    if qty == "count":
+                        _check_count(path, key, item)
             ends = []
             for end in (0, 1):
                 old = per_axis[axis][end]

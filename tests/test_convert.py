@@ -339,11 +339,12 @@ def test_bad_input_fails_on_one_line_and_writes_nothing(workdir, tmp_path, case)
     out = tmp_path / "out"
     result = run("convert", str(recipe), "-o", str(out))
     assert result.exit_code == 2
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ")
-    assert file in lines[0] and field in lines[0]
+    # exactly one line: no blank line left behind by a progress bar (stderr is no terminal here)
+    assert result.stderr.startswith("error: ") and result.stderr.count("\n") == 1
+    line = result.stderr.strip()
+    assert file in line and field in line
     assert "Traceback" not in result.output
-    assert not out.exists() or list(out.iterdir()) == []
+    assert not out.exists()
 
 
 def test_existing_asset_is_replaced_only_with_force(workdir, tmp_path):
@@ -376,3 +377,145 @@ def test_batch_in_parallel_keeps_going_and_names_the_failure(workdir, tmp_path):
     assert not (out / "broken").exists()
     assert f"FAILED  {bad}" in result.stderr and "material.preset" in result.stderr
     assert "2 converted, 1 failed" in result.stderr
+
+
+def test_fractional_layer_count_fails_before_meshing_naming_the_recipe_key(workdir, tmp_path):
+    recipe = tmp_path / "frac.toml"
+    extra = "[material.class.0.long]\ncount = 4.5\n"
+    recipe.write_text(
+        recipe_text("frac", str(workdir / "m")).replace("[geometry]\n", extra + "[geometry]\n")
+    )
+    out = tmp_path / "out"
+    result = run("convert", str(recipe), "-o", str(out))
+    assert result.exit_code == 2
+    assert (
+        result.stderr
+        == f"error: {recipe}: material.class.0.long.count: a layer count must be a whole number, got 4.5\n"
+    )
+    assert not out.exists()
+
+
+def test_failed_write_leaves_no_output_folder(workdir, tmp_path, monkeypatch):
+    from pavonine.pipeline import convert
+    from pavonine.pipeline.errors import InputError
+
+    def fail(folder, *args):
+        (folder / "partial.usda").write_text("#usda 1.0\n")
+        raise InputError(str(folder), "disk on fire")
+
+    monkeypatch.setattr(convert, "write_asset", fail)
+    recipe = tmp_path / "eye.toml"
+    recipe.write_text(recipe_text("eye_feather", str(workdir / "m")))
+    out = tmp_path / "deep" / "out"
+    with pytest.raises(InputError, match="disk on fire"):
+        convert.convert_recipe(recipe, out)
+    assert not (tmp_path / "deep").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eye.toml"]  # no staging folder left
+
+
+def test_output_below_a_file_is_bad_input_on_one_line(workdir, tmp_path):
+    recipe = tmp_path / "eye.toml"
+    recipe.write_text(recipe_text("eye_feather", str(workdir / "m")))
+    blocker = tmp_path / "somefile"
+    blocker.write_text("not a folder")
+    result = run("convert", str(recipe), "-o", str(blocker / "sub"))
+    assert result.exit_code == 2, result.output
+    assert (
+        result.stderr.startswith(f"error: {blocker / 'sub'}: ") and result.stderr.count("\n") == 1
+    )
+    assert "internal error" not in result.stderr and blocker.read_text() == "not a folder"
+
+
+def test_os_errors_in_a_worker_are_one_line_bad_input(monkeypatch):
+    import errno
+
+    from pavonine.pipeline import convert
+
+    def full_disk(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", "/assets/eye_feather")
+
+    monkeypatch.setattr(convert, "convert_recipe", full_disk)
+    result = convert._convert_safely("eye.toml", "/assets", force=False)
+    assert result.bad_input
+    assert result.error == "/assets/eye_feather: No space left on device"
+
+
+def test_batch_with_one_name_twice_is_rejected_before_converting(workdir, tmp_path):
+    first, second = tmp_path / "eye.toml", tmp_path / "eye2.toml"
+    for path in (first, second):
+        path.write_text(recipe_text("eye_feather", str(workdir / "m")))
+    out = tmp_path / "race"
+    result = run("convert", str(first), str(second), "-o", str(out), "--jobs", "2")
+    assert result.exit_code == 2
+    assert result.stderr.startswith("error: ") and result.stderr.count("\n") == 1
+    assert str(first) in result.stderr and str(second) in result.stderr
+    assert "eye_feather" in result.stderr and not out.exists()
+
+
+def test_commit_refuses_to_replace_an_asset_without_force(tmp_path):
+    from pavonine.pipeline.asset import commit_asset
+    from pavonine.pipeline.errors import InputError
+
+    target = tmp_path / "eye_feather"
+    target.mkdir()
+    (target / "eye_feather.usd").write_text("first")
+    staging = tmp_path / ".eye_feather.tmp-1"
+    staging.mkdir()
+    (staging / "eye_feather.usd").write_text("second")
+    # another writer committed between our existence check and our rename
+    with pytest.raises(InputError, match="--force"):
+        commit_asset(staging, target)
+    assert (target / "eye_feather.usd").read_text() == "first"
+    commit_asset(staging, target, force=True)
+    assert (target / "eye_feather.usd").read_text() == "second" and not staging.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eye_feather"]
+
+
+def _channels(path: Path) -> int:
+    import OpenImageIO as oiio
+
+    image = oiio.ImageInput.open(str(path))
+    try:
+        return image.spec().nchannels
+    finally:
+        image.close()
+
+
+def test_asset_maps_are_the_single_channel_values_the_geometry_used(tmp_path):
+    """An RGB source map is stored as its luma (what the mesh was displaced by), not as RGB
+    whose first channel (what the renderer reads) differs; float sources stay EXR."""
+    import OpenImageIO as oiio
+    from pxr import Usd
+
+    import pavonine  # noqa: F401  (registers the schema)
+    from pavonine.schemas.authoring import resolve_maps
+
+    _foreign_maps(tmp_path / "m", (120, 60), "exr", 16)
+    h, w = 120, 60
+    u = np.tile((np.arange(w) + 0.5) / w, (h, 1)).astype(np.float32)
+    rgb = np.stack([u, 1 - u, np.full_like(u, 0.5)], axis=-1)  # red and green disagree
+    spec = oiio.ImageSpec(w, h, 3, oiio.UINT16)
+    out = oiio.ImageOutput.create(str(tmp_path / "m" / "rgb.png"))
+    out.open(str(tmp_path / "m" / "rgb.png"), spec)
+    out.write_image(np.round(rgb * 65535).astype(np.uint16))
+    out.close()
+    text = recipe_text("rgb", "m", "exr").replace('"m/melanin.exr"', '"m/rgb.png"')
+    (tmp_path / "rgb.toml").write_text(text)
+    result = run("convert", str(tmp_path / "rgb.toml"), "-o", str(tmp_path / "out"))
+    assert result.exit_code == 0, result.output
+    root = tmp_path / "out" / "rgb" / "rgb.usd"
+    stage = Usd.Stage.Open(str(root))
+    paths = resolve_maps(stage.GetPrimAtPath("/rgb/Materials/Feather"))
+    assert set(paths) == set(MAP_NAMES)
+    for name, path in paths.items():
+        path = Path(path)
+        assert path.parent == root.parent / "maps" and path.stem == name
+        assert path.suffix == (".png" if name == "melanin" else ".exr")
+        assert _channels(path) == 1
+    luma = rgb @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+    stored = read_map(Path(paths["melanin"]), "melanin")
+    assert np.max(np.abs(stored - luma)) < 1e-4
+    assert np.max(np.abs(stored - rgb[..., 0])) > 0.5  # the first channel would have been wrong
+    stored_grey = read_map(Path(paths["gradation"]), "gradation")
+    assert np.max(np.abs(stored_grey - read_map(tmp_path / "m" / "gradation.exr", "g"))) == 0
+    assert run("validate", str(root)).exit_code == 0

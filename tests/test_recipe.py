@@ -109,3 +109,46 @@ def test_missing_map_key_unknown_preset_and_bad_toml(tmp_path):
     assert "name" in str(_error(tmp_path, MINIMAL.replace('"eye_feather"', '"eye feather"')))
     with pytest.raises(InputError, match="recipe not found"):
         parse_recipe(tmp_path / "absent.toml")
+
+
+@pytest.mark.parametrize(
+    ("geometry", "key"),
+    [
+        # 1e6 cm of cup crashed xatlas (exit 139); of bend or calamus it hung in the atlas
+        ("cup_cm = 1e6", "geometry.cup_cm"),
+        ("bend_cm = 1e6", "geometry.bend_cm"),
+        ("calamus_cm = 1e6", "geometry.calamus_cm"),
+        ("length_cm = 10\ncup_cm = 10.5", "geometry.cup_cm"),
+        ("displacement_cm = 3.5", "geometry.displacement_cm"),
+        ("rachis_radius_cm = 4", "geometry.rachis_radius_cm"),
+        ("length_cm = 1e-9", "geometry.length_cm"),
+        ("length_cm = 1e9", "geometry.length_cm"),
+        ("[geometry.lod]\nhigh = 1000000000", "geometry.lod.high"),
+    ],
+)
+def test_geometry_sizes_are_bounded(tmp_path, geometry, key):
+    error = _error(tmp_path, MINIMAL + "[geometry]\n" + geometry + "\n")
+    assert f"{key}: must" in str(error)
+
+
+def test_geometry_bounds_are_inclusive_and_name_a_default_that_breaks_them(tmp_path):
+    at_bounds = "[geometry]\nlength_cm = 10\nbend_cm = 10\ncup_cm = 10\ncalamus_cm = 10\n"
+    at_bounds += "rachis_radius_cm = 1\ndisplacement_cm = 1\n"
+    geometry = parse_recipe(_write(tmp_path, MINIMAL + at_bounds)).geometry
+    assert (geometry.bend_cm, geometry.cup_cm, geometry.rachis_radius_cm) == (10, 10, 1)
+    # a 1 cm feather keeps the default 1.5 cm bend: the error says it is the default
+    error = _error(tmp_path, MINIMAL + "[geometry]\nlength_cm = 1\n")
+    assert "geometry.bend_cm" in str(error) and "default" in str(error)
+
+
+@pytest.mark.parametrize("count", ["4.5", "[2, 4.5]", "1e6"])
+def test_layer_counts_are_whole_numbers_named_by_their_recipe_key(tmp_path, count):
+    error = _error(tmp_path, MINIMAL + f"[material.class.0.long]\ncount = {count}\n")
+    assert "material.class.0.long.count:" in str(error)
+    assert "[" not in str(error).split("count:")[0]  # the recipe key, not class[0].long.black
+
+
+def test_whole_float_layer_counts_are_accepted(tmp_path):
+    recipe = parse_recipe(_write(tmp_path, MINIMAL + "[material.class.0.long]\ncount = [3.0, 7]\n"))
+    black, white = recipe.material.classes[0].long
+    assert (black.count, white.count) == (3, 7)
