@@ -27,7 +27,6 @@ from pavonine.pipeline.compare import (
     compare_arrays,
     read_image,
     read_variance,
-    write_exr,
 )
 from pavonine.pipeline.errors import InputError
 
@@ -45,7 +44,7 @@ _VERSIONED = ("pavonine", "mitsuba", "drjit", "usd-core", "numpy", "opencolorio"
 
 
 @dataclass(frozen=True)
-class RenderSettings:
+class CheckSettings:
     """How a scene is rendered for CI: resolution (width, height), samples per pixel and seed.
 
     ``resolution=None`` means CI size: the stage's own aspect ratio, longer side ``CI_LONG_SIDE``.
@@ -60,7 +59,7 @@ class RenderSettings:
         return {"resolution": size, "spp": self.spp, "seed": self.seed}
 
     @classmethod
-    def from_json(cls, data: dict[str, Any], where: str) -> RenderSettings:
+    def from_json(cls, data: dict[str, Any], where: str) -> CheckSettings:
         try:
             width, height = (int(v) for v in data["resolution"])
             settings = cls((width, height), int(data["spp"]), int(data["seed"]))
@@ -81,9 +80,9 @@ FLIP_MIN_THRESHOLD = 0.01
 #: Longer image side of CI renders (pixels); the shorter follows the stage's aspect ratio.
 CI_LONG_SIDE = 192
 #: The baseline itself: 4x the check's samples, so its noise adds only 1/4 to the check's variance.
-BASELINE_SETTINGS = RenderSettings(None, 512, 0)
+BASELINE_SETTINGS = CheckSettings(None, 512, 0)
 #: What ``check-renders`` renders: same size, another seed (a check must not replay the baseline).
-CHECK_SETTINGS = RenderSettings(None, 128, 1)
+CHECK_SETTINGS = CheckSettings(None, 128, 1)
 
 
 @dataclass
@@ -97,10 +96,10 @@ class Baseline:
     info: dict[str, Any] = field(default_factory=dict)
 
     @property
-    def check_settings(self) -> RenderSettings:
+    def check_settings(self) -> CheckSettings:
         """Settings for re-rendering this scene in CI (recorded at update time)."""
         where = str(self.directory / INFO_FILE)
-        return RenderSettings.from_json(self.info.get("check", CHECK_SETTINGS.to_json()), where)
+        return CheckSettings.from_json(self.info.get("check", CHECK_SETTINGS.to_json()), where)
 
     @property
     def recorded_sha256(self) -> str | None:
@@ -233,7 +232,7 @@ class SceneRender:
 
 
 def render_scene(
-    stage: str | Path, settings: RenderSettings, *, progress: bool = False
+    stage: str | Path, settings: CheckSettings, *, progress: bool = False
 ) -> SceneRender:
     """Render ``stage`` with :func:`pavonine.render.api.render_stage`, with per-pixel variance."""
     from pavonine.render.api import render_stage
@@ -246,25 +245,23 @@ def render_scene(
         moments=True,
         progress=progress,
     )
-    rgb = np.asarray(result.rgb, dtype=np.float32)[:, :, :3]
-    if result.variance is None:
-        raise InputError(str(stage), "renderer returned no variance with moments=True")
-    variance = np.maximum(np.asarray(result.variance, dtype=np.float32)[:, :, :3], 0.0)
+    rgb = np.asarray(result.rgb, dtype=np.float32)
+    variance = np.maximum(np.asarray(result.variance, dtype=np.float32), 0.0)
     if (rgb.shape[1], rgb.shape[0]) != settings.resolution:
         raise InputError(
             str(stage),
             f"render is {rgb.shape[1]}x{rgb.shape[0]}, expected "
             f"{settings.resolution[0]}x{settings.resolution[1]}",
         )
-    return SceneRender(rgb, variance, dict(getattr(result, "metadata", {}) or {}))
+    return SceneRender(rgb, variance, dict(result.metadata))
 
 
 def update_baseline(
     stage: str | Path,
     *,
     baselines_dir: str | Path = BASELINES_DIR,
-    settings: RenderSettings = BASELINE_SETTINGS,
-    check: RenderSettings = CHECK_SETTINGS,
+    settings: CheckSettings = BASELINE_SETTINGS,
+    check: CheckSettings = CHECK_SETTINGS,
     command: str = "",
     progress: bool = False,
 ) -> Baseline:
@@ -288,7 +285,7 @@ def update_baseline(
     info = {
         "format": FORMAT_VERSION,
         "scene": name,
-        "stage": _relative(stage),
+        "stage": relative_to_repo(stage),
         "stage_sha256": stage_sha256(stage),
         "baseline": settings.to_json(),
         "check": check.to_json(),
@@ -302,12 +299,15 @@ def update_baseline(
     }
     staging = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=root))
     try:
-        from pavonine.render.imageio import write_exr as write_scene_exr
-        from pavonine.render.imageio import write_png as write_scene_png
+        from pavonine.render.imageio import write_exr, write_png
 
-        write_scene_exr(staging / MEAN_FILE, render.rgb, {"scene": name, **settings.to_json()})
-        write_exr(staging / VARIANCE_FILE, render.variance)
-        write_scene_png(staging / PREVIEW_FILE, render.rgb)
+        write_exr(staging / MEAN_FILE, render.rgb, {"scene": name, **settings.to_json()})
+        write_exr(
+            staging / VARIANCE_FILE,
+            render.variance,
+            {"scene": name, "quantity": "variance of the mean (scene-linear units squared)"},
+        )
+        write_png(staging / PREVIEW_FILE, render.rgb)
         (staging / INFO_FILE).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
         for written in staging.iterdir():
             written.chmod(0o644)
@@ -328,7 +328,7 @@ def update_baseline(
 def calibrate(
     stage: Path,
     baseline: SceneRender,
-    check: RenderSettings,
+    check: CheckSettings,
     *,
     seeds: int = CALIBRATION_SEEDS,
     progress: bool = False,
@@ -340,7 +340,7 @@ def calibrate(
     """
     record: dict[str, Any] = {"seeds": [], "stat_max_z_ratio": [], "flip_mean": []}
     for k in range(1, seeds + 1):
-        settings = RenderSettings(check.resolution, check.spp, check.seed + k)
+        settings = CheckSettings(check.resolution, check.spp, check.seed + k)
         render = render_scene(stage, settings, progress=progress)
         stat, flip = (
             compare_arrays(
@@ -371,7 +371,7 @@ class SceneCheck:
     render: SceneRender
     baseline: Baseline
     results: list[ComparisonResult]
-    settings: RenderSettings
+    settings: CheckSettings
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -391,7 +391,7 @@ def check_stage(
     """Render ``stage`` with the baseline's check settings (another seed) and compare."""
     settings = baseline.check_settings
     if seed is not None:
-        settings = RenderSettings(settings.resolution, settings.spp, seed)
+        settings = CheckSettings(settings.resolution, settings.spp, seed)
     if settings.resolution != baseline.mean.size:
         raise InputError(
             str(baseline.directory / INFO_FILE),
@@ -414,7 +414,7 @@ def check_stage(
     recorded = baseline.recorded_sha256
     if recorded and Path(stage).is_file() and stage_sha256(stage) != recorded:
         notes.append(
-            f"{_relative(Path(stage))} or a layer or map it uses changed since the baseline "
+            f"{relative_to_repo(Path(stage))} or a layer or map it uses changed since the baseline "
             "was made; if the change is "
             f"intended, run 'pavonine baseline update {baseline.scene}'"
         )
@@ -429,10 +429,10 @@ def options_for(baseline: Baseline) -> CompareOptions:
     return CompareOptions()
 
 
-def _relative(path: Path) -> str:
+def relative_to_repo(path: str | Path) -> str:
     """``path`` relative to the repository when inside it (for records and messages)."""
     try:
-        return str(path.resolve().relative_to(REPO_ROOT))
+        return str(Path(path).resolve().relative_to(REPO_ROOT))
     except ValueError:
         return str(path)
 

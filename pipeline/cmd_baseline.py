@@ -14,9 +14,9 @@ from pavonine.pipeline.baselines import (
     CI_LONG_SIDE,
     MEAN_FILE,
     SCENES_DIR,
-    RenderSettings,
-    _relative,
+    CheckSettings,
     load_baseline,
+    relative_to_repo,
     resolve_stage,
     scene_name,
     shipped_scenes,
@@ -32,19 +32,6 @@ def store_options(command):
         "--baselines-dir", type=directory, default=BASELINES_DIR, help="Baseline folders."
     )(command)
     return click.option("--scenes-dir", type=directory, default=SCENES_DIR, help="Scenes.")(command)
-
-
-def parse_resolution(text: str) -> tuple[int, int]:
-    """``64x48`` or ``64`` → (64, 48) / (64, 64)."""
-    try:
-        parts = [int(p) for p in text.lower().split("x")]
-    except ValueError:
-        raise InputError("--resolution", f"expected WIDTHxHEIGHT, got '{text}'") from None
-    if len(parts) == 1:
-        parts *= 2
-    if len(parts) != 2 or min(parts) <= 0:
-        raise InputError("--resolution", f"expected positive WIDTHxHEIGHT, got '{text}'")
-    return parts[0], parts[1]
 
 
 @click.group("baseline")
@@ -94,6 +81,8 @@ def update(
     """Re-render the baselines of SCENES (names like eye_feather_sun, or stage paths)."""
     from rich.progress import Progress
 
+    from pavonine.render.settings import parse_resolution
+
     if not scenes and not all_scenes:
         raise InputError("baseline update", "name at least one SCENE, or pass --all")
     if spp <= 0 or check_spp <= 0:
@@ -121,8 +110,8 @@ def update(
             made = update_baseline(
                 stage,
                 baselines_dir=baselines_dir,
-                settings=RenderSettings(size, spp, seed),
-                check=RenderSettings(size, check_spp, check_seed),
+                settings=CheckSettings(size, spp, seed),
+                check=CheckSettings(size, check_spp, check_seed),
                 command=command,
             )
             progress.advance(task)
@@ -139,7 +128,7 @@ def list_baselines(scenes_dir: Path, baselines_dir: Path) -> None:
 
     from pavonine.pipeline.baselines import stage_sha256
 
-    table = Table(title=f"baselines in {_relative(baselines_dir)}")
+    table = Table(title=f"baselines in {relative_to_repo(baselines_dir)}")
     table.add_column("scene", no_wrap=True)
     for column in ("spp", "check spp", "size", "made", "inputs since"):
         table.add_column(column)

@@ -19,7 +19,6 @@ from pavonine.pipeline.compare import (
     quantization_variance,
     read_image,
     read_variance,
-    write_png,
 )
 from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
 
@@ -96,6 +95,12 @@ def print_results(results: list[ComparisonResult], title: str) -> None:
     help=f"Mean FLIP above which images differ [default: a baseline folder's calibrated "
     f"threshold, else {FLIP_THRESHOLD}].",
 )
+@click.option(
+    "--view",
+    default=None,
+    help="OCIO view PNG inputs were encoded with [default: the view recorded in the PNG, "
+    "else Un-tone-mapped].",
+)
 @one_line_errors
 def compare(
     test: Path,
@@ -111,12 +116,14 @@ def compare(
     significance: float,
     pass_ratio: float,
     flip_threshold: float | None,
+    view: str | None,
 ) -> None:
     """Compare TEST with REF (EXR or PNG; REF may be a baseline folder).
 
     Exit 0 when they agree, 1 when they differ, 2 on bad input. Writes a heat-map PNG per method.
     """
     from pavonine.pipeline.compare import compare_arrays
+    from pavonine.render.imageio import check_view, write_display_png
 
     if not 0 < significance < 1:
         raise InputError("--significance", f"must be in (0, 1), got {significance}")
@@ -124,6 +131,8 @@ def compare(
         raise InputError("--pass-ratio", f"must be in (0, 1], got {pass_ratio}")
     if flip_threshold is not None and flip_threshold <= 0:
         raise InputError("--flip-threshold", f"must be positive, got {flip_threshold}")
+    if view is not None:
+        check_view(view)
 
     if ref.is_dir():
         from pavonine.pipeline.baselines import load_baseline, options_for
@@ -137,9 +146,9 @@ def compare(
         test_spp = test_spp or baseline.check_settings.spp
         flip_threshold = flip_threshold or options_for(baseline).flip_threshold
     else:
-        ref_image = read_image(ref)
+        ref_image = read_image(ref, view)
         ref_var = read_variance(ref_variance, ref_image.size) if ref_variance else None
-    test_image = read_image(test)
+    test_image = read_image(test, view)
     check_same_shape(test_image, ref_image)
     test_image, ref_image = match_display_range(test_image, ref_image)
     test_var = read_variance(test_variance, test_image.size) if test_variance else None
@@ -175,7 +184,7 @@ def compare(
     out_dir = heatmap_dir if heatmap_dir is not None else test.parent
     for result in results:
         heatmap = out_dir / f"{test.stem}.{result.method}-diff.png"
-        write_png(heatmap, result.heatmap)
+        write_display_png(heatmap, result.heatmap)
         result.numbers["heatmap"] = str(heatmap)
     print_results(results, f"{test} vs {ref}")
     if json_path is not None:

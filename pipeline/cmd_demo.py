@@ -67,12 +67,10 @@ def demo(outdir: Path, size: int, spp: int, resolution: str, seed: int) -> None:
     from pavonine.pipeline.convert import convert_recipe
     from pavonine.pipeline.maps import generate_maps, write_contact_sheet, write_maps
     from pavonine.render.api import render_stage
-    from pavonine.render.imageio import write_exr, write_png
+    from pavonine.render.imageio import write_render
+    from pavonine.render.settings import parse_resolution
 
-    try:
-        width, height = (int(v) for v in resolution.lower().split("x"))
-    except ValueError:
-        raise InputError("--resolution", f"expected WxH, got {resolution!r}") from None
+    width, height = parse_resolution(resolution)
     recipe_text = _shipped("recipes", f"{FEATHER}.toml").read_text()
     shipped_scene = _shipped("scenes", "eye_feather_sun.usda")
     console = Console(stderr=True)
@@ -99,6 +97,5 @@ def demo(outdir: Path, size: int, spp: int, resolution: str, seed: int) -> None:
     console.print(f"[4/4] rendering {width}×{height} at {spp} spp")
     rendered = render_stage(scene, spp=spp, resolution=(width, height), seed=seed)
     exr, png = outdir / "eye_feather_sun.exr", outdir / "eye_feather_sun.png"
-    write_exr(exr, rendered.rgb, rendered.metadata)
-    write_png(png, rendered.rgb)
+    write_render(exr, rendered.rgb, rendered.metadata, png_path=png)
     click.echo(f"wrote {png}")

@@ -10,20 +10,6 @@ import click
 from pavonine.pipeline.errors import InputError, one_line_errors
 
 
-def _resolution(
-    ctx: click.Context, param: click.Parameter, value: str | None
-) -> tuple[int, int] | None:
-    if value is None:
-        return None
-    try:
-        w, h = (int(v) for v in value.lower().split("x"))
-    except ValueError:
-        raise click.BadParameter(f"expected WIDTHxHEIGHT (e.g. 512x512), got {value!r}") from None
-    if w < 1 or h < 1:
-        raise click.BadParameter(f"width and height must be positive, got {value!r}")
-    return w, h
-
-
 @click.command("render")
 @click.argument("stage", type=click.Path(dir_okay=False, path_type=Path))
 @click.option(
@@ -36,17 +22,21 @@ def _resolution(
 @click.option(
     "--png",
     "png",
-    is_flag=False,
-    flag_value="",
+    is_flag=True,
+    help="Also write a display PNG (OCIO sRGB display) beside the EXR (OUTPUT with .png).",
+)
+@click.option(
+    "--png-out",
+    type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Also write a display PNG (OCIO sRGB display); without a value, beside the EXR.",
+    metavar="FILE.png",
+    help="Also write the display PNG, to FILE.png (implies --png).",
 )
 @click.option(
     "--spp", type=click.IntRange(min=1), default=64, show_default=True, help="Samples per pixel."
 )
 @click.option(
     "--resolution",
-    callback=_resolution,
     metavar="WxH",
     help="Image size [default: the stage's RenderSettings, else 512x512].",
 )
@@ -72,9 +62,10 @@ def _resolution(
 def render(
     stage: Path,
     output: Path | None,
-    png: str | None,
+    png: bool,
+    png_out: Path | None,
     spp: int,
-    resolution,
+    resolution: str | None,
     camera: str | None,
     time_: float | None,
     seed: int,
@@ -87,14 +78,24 @@ def render(
     Without a camera the stage is framed automatically; without lights it is lit by a default
     sun (from the right) and sky, so a bare feather asset renders as it is.
     """
+    from pavonine.materials.colour import DEFAULT_VIEW
     from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import StageWarning
-    from pavonine.render.imageio import write_exr, write_png
+    from pavonine.render.imageio import check_view, check_writable, write_render
+    from pavonine.render.settings import parse_resolution
 
+    # Everything the user typed is checked before the (possibly long) render.
+    size = None if resolution is None else parse_resolution(resolution)
     output = output or Path(stage.stem + ".exr")
     if output.suffix.lower() != ".exr":
         raise InputError(str(output), "output must be an .exr file (use --png for a display image)")
-    png_path = None if png is None else (Path(png) if png else output.with_suffix(".png"))
+    if png_out is not None and png_out.suffix.lower() != ".png":
+        raise InputError(f"--png-out {png_out}", "must name a .png file")
+    png_path = png_out or (output.with_suffix(".png") if png else None)
+    view = check_view(view or DEFAULT_VIEW)
+    for path in (output, png_path):
+        if path is not None:
+            check_writable(path)
 
     def show(message, category, filename, lineno, file=None, line=None):
         click.echo(f"warning: {message}", err=True)
@@ -105,21 +106,15 @@ def render(
         result = render_stage(
             stage,
             spp=spp,
-            resolution=resolution,
+            resolution=size,
             seed=seed,
             camera=camera,
             time=time_,
             variant=variant,
             progress=not quiet,
         )
-    write_exr(output, result.rgb, result.metadata)
-    written = [str(output)]
-    if png_path is not None:
-        if view:
-            write_png(png_path, result.rgb, view=view)
-        else:
-            write_png(png_path, result.rgb)
-        written.append(str(png_path))
+    write_render(output, result.rgb, result.metadata, png_path=png_path, view=view)
+    written = [str(p) for p in (output, png_path) if p is not None]
     w, h = result.metadata["resolution"]
     click.echo(
         f"{' + '.join(written)}: {w}×{h}, {spp} spp, {result.metadata['variant']}, "

@@ -12,8 +12,10 @@ tests of all scales form one family for the Šidák correction.
 Alternating Images", HPG) on display-referred images and thresholds its mean.
 
 Images are held scene-linear (Rec.709 primaries) in memory. PNG files are display-referred and are
-decoded with the inverse of :func:`display_encode` (the renderer's own OCIO display transform);
-EXR files are encoded with it before FLIP.
+decoded with the inverse of the renderer's own OCIO display transform, for the view recorded in the
+PNG (``pavonine:view``, written by :mod:`pavonine.render.imageio`; ``Un-tone-mapped`` when absent,
+or as told); EXR files are encoded with the default view before FLIP. Images are written by
+:mod:`pavonine.render.imageio`.
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ class LoadedImage:
     rgb: np.ndarray
     display_referred: bool
     channels: int
+    view: str | None = None  # OCIO view a display-referred image was encoded with
 
     @property
     def size(self) -> tuple[int, int]:
@@ -65,8 +68,8 @@ class LoadedImage:
         return self.rgb.shape[1], self.rgb.shape[0]
 
 
-def _read_pixels(path: Path) -> np.ndarray:
-    """All channels of ``path`` as H×W×C float32, or :class:`InputError` with a one-line reason."""
+def _read_pixels(path: Path) -> tuple[np.ndarray, dict[str, object]]:
+    """All channels of ``path`` as H×W×C float32 and its header attributes, or :class:`InputError`."""
     import OpenImageIO as oiio
 
     if not path.exists():
@@ -78,6 +81,7 @@ def _read_pixels(path: Path) -> np.ndarray:
         reason = oiio.geterror().strip().splitlines()
         raise InputError(str(path), f"cannot read image ({reason[-1] if reason else 'unknown'})")
     try:
+        attributes = {a.name: a.value for a in inp.spec().extra_attribs}
         pixels = inp.read_image("float")
         error = inp.geterror() if pixels is None else ""
     finally:
@@ -87,7 +91,7 @@ def _read_pixels(path: Path) -> np.ndarray:
     pixels = np.asarray(pixels, dtype=np.float32)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
-    return pixels
+    return pixels, attributes
 
 
 def _as_rgb(pixels: np.ndarray, path: Path) -> np.ndarray:
@@ -100,18 +104,32 @@ def _as_rgb(pixels: np.ndarray, path: Path) -> np.ndarray:
     raise InputError(str(path), f"has {channels} channels; expected 1 (grey), 3 (RGB) or 4 (RGBA)")
 
 
-def read_image(path: str | Path) -> LoadedImage:
-    """Read an EXR (scene-linear) or PNG (display-referred, decoded to linear) for comparison."""
+def read_image(path: str | Path, view: str | None = None) -> LoadedImage:
+    """Read an EXR (scene-linear) or PNG (display-referred, decoded to linear) for comparison.
+
+    A PNG is decoded with ``view`` if given, else with the OCIO view recorded in it by
+    :func:`pavonine.render.imageio.write_png`, else with the default view.
+    """
+    from pavonine.materials.colour import DEFAULT_VIEW
+    from pavonine.render.imageio import check_view, png_view
+
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _EXR + _PNG:
         raise InputError(str(path), f"unsupported image type '{suffix}'; expected .exr or .png")
-    pixels = _read_pixels(path)
+    pixels, attributes = _read_pixels(path)
     rgb = _as_rgb(pixels, path)
     display = suffix in _PNG
+    used_view = None
     if display:
-        rgb = display_decode(rgb)
-    return LoadedImage(path, np.ascontiguousarray(rgb, dtype=np.float32), display, pixels.shape[2])
+        used_view = view or png_view(attributes) or DEFAULT_VIEW
+        try:
+            check_view(used_view)
+        except InputError as exc:
+            raise InputError(str(path), exc.message) from None
+        rgb = display_decode(rgb, used_view)
+    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    return LoadedImage(path, rgb, display, pixels.shape[2], used_view)
 
 
 def read_variance(path: str | Path, size: tuple[int, int]) -> np.ndarray:
@@ -119,7 +137,7 @@ def read_variance(path: str | Path, size: tuple[int, int]) -> np.ndarray:
     path = Path(path)
     if path.suffix.lower() not in _EXR:
         raise InputError(str(path), "variance must be an EXR file (scene-linear units squared)")
-    pixels = _read_pixels(path)
+    pixels, _ = _read_pixels(path)
     if (pixels.shape[1], pixels.shape[0]) != size:
         raise InputError(
             str(path),
@@ -132,8 +150,8 @@ def read_variance(path: str | Path, size: tuple[int, int]) -> np.ndarray:
 
 
 @cache
-def _display_decoder():
-    """Inverse of the renderer's PNG transform (:mod:`pavonine.materials.colour`)."""
+def _display_decoder(view: str):
+    """Inverse of the renderer's PNG transform (:mod:`pavonine.materials.colour`) for ``view``."""
     import PyOpenColorIO as ocio
 
     from pavonine.materials import colour
@@ -142,28 +160,31 @@ def _display_decoder():
     transform = ocio.DisplayViewTransform(
         src=colour.SCENE_LINEAR,
         display=colour.DISPLAY,
-        view=colour.DEFAULT_VIEW,
+        view=view,
         direction=ocio.TRANSFORM_DIR_INVERSE,
     )
     return config.getProcessor(transform).getDefaultCPUProcessor()
 
 
-def display_encode(linear: np.ndarray) -> np.ndarray:
+def display_encode(linear: np.ndarray, view: str | None = None) -> np.ndarray:
     """Scene-linear Rec.709 → display sRGB in [0, 1], exactly as the renderer's PNGs are encoded.
 
-    OCIO built-in CG config, display ``sRGB - Display``, view ``Un-tone-mapped``
+    OCIO built-in CG config, display ``sRGB - Display``, ``view`` (default ``Un-tone-mapped``)
     (:func:`pavonine.materials.colour.display_encode`); non-finite values become 0 first.
     """
+    from pavonine.materials.colour import DEFAULT_VIEW
     from pavonine.materials.colour import display_encode as encode
 
     rgb = np.nan_to_num(np.asarray(linear, np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    return np.asarray(encode(rgb), dtype=np.float32)
+    return np.asarray(encode(rgb, view=view or DEFAULT_VIEW), dtype=np.float32)
 
 
-def display_decode(encoded: np.ndarray) -> np.ndarray:
+def display_decode(encoded: np.ndarray, view: str | None = None) -> np.ndarray:
     """Display sRGB in [0, 1] → scene-linear Rec.709 (inverse of :func:`display_encode`)."""
+    from pavonine.materials.colour import DEFAULT_VIEW
+
     rgb = np.ascontiguousarray(encoded, dtype=np.float32).reshape(-1, 3).copy()
-    _display_decoder().applyRGB(rgb)
+    _display_decoder(view or DEFAULT_VIEW).applyRGB(rgb)
     return rgb.reshape(np.shape(encoded))
 
 
@@ -177,11 +198,13 @@ def match_display_range(test: LoadedImage, ref: LoadedImage) -> tuple[LoadedImag
     if test.display_referred == ref.display_referred:
         return test, ref
 
+    view = test.view if test.display_referred else ref.view
+
     def clipped(image: LoadedImage) -> LoadedImage:
         if image.display_referred:
             return image
-        rgb = display_decode(display_encode(image.rgb)).astype(np.float32)
-        return LoadedImage(image.path, rgb, image.display_referred, image.channels)
+        rgb = display_decode(display_encode(image.rgb, view), view).astype(np.float32)
+        return LoadedImage(image.path, rgb, image.display_referred, image.channels, view)
 
     return clipped(test), clipped(ref)
 
@@ -194,11 +217,12 @@ def quantization_variance(image: LoadedImage) -> np.ndarray:
     """
     if not image.display_referred:
         return np.zeros_like(image.rgb)
-    encoded = display_encode(image.rgb)
+    view = image.view
+    encoded = display_encode(image.rgb, view)
     step = 0.5 / 255.0
     slope = (
-        display_decode(np.clip(encoded + step, 0, 1))
-        - display_decode(np.clip(encoded - step, 0, 1))
+        display_decode(np.clip(encoded + step, 0, 1), view)
+        - display_decode(np.clip(encoded - step, 0, 1), view)
     ) * 255.0
     return (slope**2 * (1.0 / 255.0) ** 2 / 12.0).astype(np.float32)
 
@@ -437,42 +461,3 @@ def compare_arrays(
         pass_ratio=options.pass_ratio,
         blocks=options.blocks,
     )
-
-
-def write_png(path: str | Path, rgb: np.ndarray) -> None:
-    """Write a display-referred H×W×3 image in [0, 1] as an 8-bit PNG, atomically."""
-    import OpenImageIO as oiio
-
-    from pavonine.pipeline.errors import atomic_path
-
-    data = np.round(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(str(tmp))
-        if out is None:
-            raise InputError(str(path), f"cannot write PNG ({oiio.geterror()})")
-        spec = oiio.ImageSpec(data.shape[1], data.shape[0], data.shape[2], "uint8")
-        if not out.open(str(tmp), spec) or not out.write_image(data):
-            message = out.geterror()
-            out.close()
-            raise InputError(str(path), f"cannot write PNG ({message})")
-        out.close()
-
-
-def write_exr(path: str | Path, rgb: np.ndarray) -> None:
-    """Write an H×W×3 float32 image as a ZIP-compressed EXR, atomically."""
-    import OpenImageIO as oiio
-
-    from pavonine.pipeline.errors import atomic_path
-
-    data = np.ascontiguousarray(rgb, dtype=np.float32)
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(str(tmp))
-        if out is None:
-            raise InputError(str(path), f"cannot write EXR ({oiio.geterror()})")
-        spec = oiio.ImageSpec(data.shape[1], data.shape[0], data.shape[2], "float")
-        spec.attribute("compression", "zip")
-        if not out.open(str(tmp), spec) or not out.write_image(data):
-            message = out.geterror()
-            out.close()
-            raise InputError(str(path), f"cannot write EXR ({message})")
-        out.close()

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.pipeline.compare import ComparisonResult, display_encode, write_png
+from pavonine.pipeline.compare import ComparisonResult
 from pavonine.pipeline.errors import atomic_path
+from pavonine.render.imageio import write_display_png, write_png
 
 _TEMPLATE = """<!DOCTYPE html>
 <html lang="en">
@@ -129,11 +130,11 @@ def write_report(
             "render": f"images/{stem}-render.png",
             "baseline": f"images/{stem}-baseline.png",
         }
-        write_png(directory / scene.images["render"], display_encode(scene.render))
-        write_png(directory / scene.images["baseline"], display_encode(scene.baseline))
+        write_png(directory / scene.images["render"], scene.render)
+        write_png(directory / scene.images["baseline"], scene.baseline)
         for result in scene.results:
             scene.images[result.method] = f"images/{stem}-{result.method}-diff.png"
-            write_png(directory / scene.images[result.method], result.heatmap)
+            write_display_png(directory / scene.images[result.method], result.heatmap)
     methods = sorted({r.method for s in scenes for r in s.results}, key=lambda m: (m != "stat", m))
     env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined)
     page = env.from_string(_TEMPLATE).render(

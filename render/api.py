@@ -12,7 +12,9 @@ means (in linear Rec.709, so exact for the RGB that is reported).
 
 from __future__ import annotations
 
+import gc
 import os
+import re
 import time as _time
 from dataclasses import dataclass, field
 from typing import Any
@@ -24,7 +26,7 @@ from pavonine.pipeline.errors import InputError
 from pavonine.render import camera as camera_translator
 from pavonine.render import lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
-from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
 from pavonine.render.settings import DEFAULT_RESOLUTION, read_render_settings
 
@@ -108,7 +110,7 @@ def render_stage(
         bounds = synced.bounds or (np.full(3, -1.0), np.full(3, 1.0))
         sensor = camera_translator.framing_camera(bounds, synced.up_axis)
     emitters = dict(synced.emitters)
-    if not emitters:
+    if not emitters and not synced.mesh_lights:
         up = np.eye(3)[2 if synced.up_axis == "Z" else 1]
         center, radius = delegate.bounding_sphere()
         emitters = lights.default_lights(sensor.to_world, up, center, radius)
@@ -128,13 +130,13 @@ def render_stage(
             "sampler": {"type": "independent"},
         },
     }
-    for name, entry in {**synced.shapes, **emitters}.items():
-        scene_dict[_key(name)] = entry
+    scene_dict.update(scene_objects(synced.shapes, emitters))
+    gc.collect()  # see _render_pass
     try:
         scene = mi.load_dict(scene_dict)
     except Exception as exc:
         raise InputError(
-            os.fspath(stage_path), f"Mitsuba could not build the scene: {_first_line(exc)}"
+            os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"
         ) from None
 
     spp_pass = _samples_per_pass(spp, film_width * height, moments)
@@ -164,9 +166,7 @@ def render_stage(
         task = bar.add_task("render", total=spp)
         for index in range(passes):
             pass_seed = (seed * SEED_STRIDE + index) & 0xFFFFFFFF
-            image = np.asarray(mi.render(scene, spp=spp_pass, seed=pass_seed), dtype=np.float64)[
-                ..., :3
-            ]
+            image = _render_pass(mi, scene, spp_pass, pass_seed)
             if resample is not None:
                 image = np.einsum("jk,ikc->ijc", resample, image)
             total += image
@@ -199,12 +199,30 @@ def render_stage(
     return RenderResult(rgb=rgb, variance=variance, metadata=metadata, warnings=list(diag.messages))
 
 
+def _render_pass(mi, scene, spp: int, seed: int) -> np.ndarray:
+    """One ``mi.render`` pass as H×W×3 float64, with Python's cyclic garbage collector paused.
+
+    Dr.Jit traces every registered BSDF instance when it records a virtual call; a Python-defined
+    BSDF (the feather) of an earlier, unreachable scene freed by a collector run *during* that
+    tracing leaves a dangling pointer and Mitsuba segfaults. :func:`render_stage` collects before
+    building the scene, and no collection runs while a pass is traced.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        image = mi.render(scene, spp=spp, seed=seed)
+    finally:
+        if enabled:
+            gc.enable()
+    return np.asarray(image, dtype=np.float64)[..., :3]
+
+
 def _select(variant: str | None):
     try:
         return select_variant(variant)
     except (ImportError, ValueError, AttributeError) as exc:
         raise InputError(
-            "--variant", f"cannot use Mitsuba variant {variant!r}: {_first_line(exc)}"
+            "--variant", f"cannot use Mitsuba variant {variant!r}: {first_line(exc)}"
         ) from None
 
 
@@ -242,11 +260,25 @@ def _versions() -> dict[str, str]:
     }
 
 
-def _key(name: str) -> str:
-    """Mitsuba scene-dict keys may not contain '.'; prim paths become readable ids."""
-    return name.strip("/").replace("/", "__").replace(".", "_").replace("#", "_") or "root"
+def scene_objects(shapes: dict[str, Any], emitters: dict[str, Any]) -> dict[str, Any]:
+    """Shapes and emitters keyed by unique Mitsuba scene-dict ids.
 
-
-def _first_line(exc: object) -> str:
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    return lines[-1] if lines else type(exc).__name__
+    Prim-derived names (``/a/b#0``, ``/Sun``) become ``mesh_a__b_0`` / ``light_Sun`` (Mitsuba
+    ids may not contain ``.`` or ``/``); a name that maps onto an id already taken gets a ``_N``
+    suffix, so ``/a/b`` and ``/a__b`` stay two objects. Internal ids (``shapegroup_N``,
+    ``instance_N``, ``default_sun``) are kept verbatim, since instances refer to them.
+    """
+    items = [("mesh", name, entry) for name, entry in shapes.items()]
+    items += [("light", name, entry) for name, entry in emitters.items()]
+    taken = {name for _, name, _ in items if not name.startswith("/")}
+    objects: dict[str, Any] = {}
+    for prefix, name, entry in items:
+        key = name
+        if name.startswith("/"):
+            base = f"{prefix}_" + re.sub(r"[^A-Za-z0-9_]", "_", name[1:].replace("/", "__"))
+            key, n = base, 1
+            while key in taken:
+                key, n = f"{base}_{n}", n + 1
+            taken.add(key)
+        objects[key] = entry
+    return objects

@@ -13,11 +13,11 @@ import re
 from dataclasses import dataclass, field
 
 import numpy as np
-from pxr import Tf, Usd, UsdGeom, UsdShade
+from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.pipeline.errors import InputError
 from pavonine.render import instancing, lights, materials, mesh
-from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.xform import TransformCache
 
 # prims that carry no geometry of their own (their children are still visited)
@@ -27,14 +27,12 @@ STRUCTURAL = {
     "Scope",
     "SkelRoot",
     "GeomSubset",
-    "RenderSettings",
-    "RenderProduct",
     "RenderVar",
     "RenderPass",
     "Shader",
-    "NodeGraph",
     "Backdrop",
 }
+# prims whose children are not geometry either (shading networks, render settings)
 PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
 
 
@@ -50,6 +48,7 @@ class SyncedScene:
     mesh_count: int = 0
     instance_count: int = 0
     feather_materials: int = 0
+    mesh_lights: int = 0  # meshes with MeshLightAPI, translated as area emitters
 
 
 def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
@@ -64,7 +63,7 @@ def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
     if stage is None:
         raise InputError(path, "cannot open USD stage")
     for error in stage.GetCompositionErrors():
-        diag.warn(path, f"composition error: {_first_line(error)}")
+        diag.warn(path, f"composition error: {first_line(error)}")
     return stage
 
 
@@ -106,8 +105,10 @@ class StageDelegate:
                 instancing.native_instance(prim, self.xforms.world(prim), self.table, self._subtree)
                 it.PruneChildren()
             elif kind == "Mesh":
-                for i, shape in enumerate(self._mesh(prim, self.xforms.world(prim), world=True)):
+                shapes, boxes = self._mesh(prim, self.xforms.world(prim), world=True)
+                for i, shape in enumerate(shapes):
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
+                self._bounds.extend(boxes)
             elif kind == "PointInstancer":
                 instancing.point_instancer(
                     prim, self.xforms.world(prim), self.time, self.table, self._subtree, self.diag
@@ -117,9 +118,10 @@ class StageDelegate:
                 self.scene.cameras[str(prim.GetPath())] = prim
             elif lights.is_light(prim):
                 light_prims.append(prim)
-            elif kind in STRUCTURAL or kind in PRUNED:
-                if kind in PRUNED:
-                    it.PruneChildren()
+            elif kind in PRUNED:
+                it.PruneChildren()
+            elif kind in STRUCTURAL:
+                continue
             else:
                 self.diag.warn(
                     str(prim.GetPath()),
@@ -161,18 +163,20 @@ class StageDelegate:
             return False
         return imageable.ComputePurpose() not in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
 
-    def _mesh(self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool) -> list:
+    def _mesh(
+        self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool
+    ) -> tuple[list, list[tuple[np.ndarray, np.ndarray]]]:
+        """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space."""
         usd_mesh = UsdGeom.Mesh(prim)
         topology = mesh.read_topology(usd_mesh, self.time, self.diag)
         if topology is None:
-            return []
+            return [], []
         double_sided = bool(usd_mesh.GetDoubleSidedAttr().Get(self.time))
-        shapes = []
+        built = []
         for index, (material, mask) in enumerate(
             mesh.material_groups(usd_mesh, topology, self.time, self.diag)
         ):
             spec = self._material(material, prim)
-            name = f"{prim.GetPath()}#{index}"
             triangles = mesh.build_triangle_mesh(
                 usd_mesh,
                 topology,
@@ -182,21 +186,41 @@ class StageDelegate:
                 spec.attributes,
                 self.time,
                 self.diag,
-                name,
+                f"{prim.GetPath()}#{index}",
             )
-            bsdf = self._bsdf(spec, double_sided)
-            shapes.append(mesh.to_mitsuba_mesh(triangles, bsdf))
-            if world:
-                self._bounds.append(triangles.bounds())
-            else:
-                self._last_bounds.append(triangles.bounds())
-            self.scene.mesh_count += 1
-        return shapes
+            built.append((triangles, self._bsdf(spec, double_sided)))
+        emitter = self._mesh_light(prim, sum(t.area() for t, _ in built), world)
+        shapes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
+        self.scene.mesh_count += len(built)
+        return shapes, [t.bounds() for t, _ in built]
+
+    def _mesh_light(self, prim: Usd.Prim, world_area: float, world: bool) -> dict | None:
+        """A ``MeshLightAPI`` mesh's Mitsuba ``area`` emitter (UsdLux radiance, ``normalize``)."""
+        if not prim.HasAPI(UsdLux.MeshLightAPI):
+            return None
+        if not world:
+            self.diag.warn(
+                str(prim.GetPath()),
+                "MeshLightAPI inside an instance prototype is not supported "
+                "(Mitsuba instances cannot emit); rendered without emission",
+            )
+            return None
+        radiance = lights.radiance(prim, self.time)
+        if UsdLux.LightAPI(prim).GetNormalizeAttr().Get(self.time):
+            radiance = radiance / max(world_area, 1e-12)
+        self.scene.mesh_lights += 1
+        return {"type": "area", "radiance": {"type": "rgb", "value": radiance.tolist()}}
+
+    @staticmethod
+    def _load(entry: dict | None):
+        import mitsuba as mi
+
+        return None if entry is None else mi.load_dict(entry)
 
     def _subtree(self, root: Usd.Prim, relative_to: Usd.Prim) -> tuple[list, tuple | None]:
         """Meshes under ``root`` (instance proxies included) relative to ``relative_to``."""
-        self._last_bounds: list = []
         shapes: list = []
+        boxes: list = []
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies()))
         for prim in it:
             if not self._visible(prim):
@@ -207,7 +231,9 @@ class StageDelegate:
                 matrix = (
                     np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
                 )
-                shapes.extend(self._mesh(prim, matrix, world=False))
+                prim_shapes, prim_boxes = self._mesh(prim, matrix, world=False)
+                shapes.extend(prim_shapes)
+                boxes.extend(prim_boxes)
             elif kind == "PointInstancer":
                 self.diag.warn(
                     str(prim.GetPath()),
@@ -221,7 +247,6 @@ class StageDelegate:
                     str(prim.GetPath()),
                     f"{kind} prims are not supported by the Mitsuba delegate; skipped",
                 )
-        boxes = self._last_bounds
         bounds = (
             (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
             if boxes
@@ -253,7 +278,7 @@ class StageDelegate:
             except Exception as exc:
                 self.diag.warn(
                     spec.key,
-                    f"Mitsuba rejected the material ({_first_line(exc)}); rendering grey diffuse",
+                    f"Mitsuba rejected the material ({first_line(exc)}); rendering grey diffuse",
                 )
                 self._bsdfs[key] = mi.load_dict(materials.default_material().bsdf)
         return self._bsdfs[key]
@@ -263,14 +288,6 @@ def usd_error_message(exc: object) -> str:
     """The first diagnostic of a ``Tf.ErrorException`` on one line, without C++ namespaces."""
     text = str(exc)
     quoted = re.findall(r" : '(.*?)'\s*(?:\n|$)", text, flags=re.S)
-    message = (quoted[0] if quoted else _first_line(exc)).strip()
+    message = (quoted[0] if quoted else first_line(exc)).strip()
     message = re.sub(r"pxrInternal_v\w+?__pxrReserved__::", "", message)
     return " ".join(message.split())
-
-
-def _first_line(exc: object) -> str:
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    for line in lines:
-        if "Error" not in line[:12] or len(lines) == 1:
-            return line
-    return lines[0] if lines else type(exc).__name__

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 from dataclasses import dataclass, field
 
@@ -22,3 +23,16 @@ class Diagnostics:
         if line not in self.messages:
             self.messages.append(line)
             warnings.warn(line, StageWarning, stacklevel=3)
+
+
+def first_line(exc: object) -> str:
+    """The first informative line of an exception's message, for one-line errors and warnings.
+
+    Skips a bare ``Error …`` header that USD puts before the message when more lines follow, and
+    drops Mitsuba's ``[file.cpp:123]`` source location prefix.
+    """
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    if not lines:
+        return type(exc).__name__
+    line = next((ln for ln in lines if not ln[:12].startswith("Error")), lines[0])
+    return re.sub(r"^\[[\w.]+:\d+\]\s*", "", line)

@@ -1,23 +1,32 @@
-"""Images out: scene-linear EXR with its colour space in the header, display PNG through OCIO.
+"""Image I/O for renders, baselines and comparisons: the one place images are written.
 
 EXR: 32-bit float RGB written with OpenImageIO, ``oiio:ColorSpace`` = ``lin_rec709_scene``
 (Linear Rec.709 (sRGB) in the OCIO built-in configs) and the standard EXR ``chromaticities``
-(Rec.709 primaries, D65 white), plus the render's metadata as ``pavonine:*`` attributes.
+(Rec.709 primaries, D65 white), plus metadata as ``pavonine:*`` attributes (variance images too:
+their values are in the same scene-linear space, squared).
 PNG: the same pixels through OpenColorIO's built-in CG config, display ``sRGB - Display``
-(view ``Un-tone-mapped`` unless told otherwise), as :mod:`pavonine.materials.colour` does.
-Both are written atomically (a temporary file renamed on success).
+(view ``Un-tone-mapped`` unless told otherwise), as :mod:`pavonine.materials.colour` does; the
+view is recorded as ``pavonine:view`` so that readers can invert the right transform.
+:func:`write_display_png` writes images that already are display-referred (heat-maps).
+Every file is written atomically (a temporary file renamed on success);
+:func:`write_render` writes an EXR and its PNG so that both appear or neither does.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import json
 import os
+import re
+import tempfile
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pavonine.materials.colour import DEFAULT_VIEW, display_encode
+from pavonine.materials.colour import DEFAULT_VIEW, DISPLAY, OCIO_CONFIG, display_encode
 from pavonine.pipeline.errors import InputError, atomic_path
 
 EXR_COLORSPACE = "lin_rec709_scene"
@@ -46,15 +55,99 @@ def write_exr(
 
 def write_png(path: str | os.PathLike, rgb: np.ndarray, view: str = DEFAULT_VIEW) -> None:
     """Write scene-linear ``rgb`` as an 8-bit sRGB PNG through the OCIO display/view transform."""
+    pixels = _check_rgb(rgb)
+    check_view(view)
+    display = display_encode(np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0), view=view)
+    write_display_png(path, display, view=view)
+
+
+def write_display_png(
+    path: str | os.PathLike, display: np.ndarray, view: str | None = None
+) -> None:
+    """Write a display-referred H×W×C image (C = 1, 3 or 4, values in [0, 1]) as an 8-bit PNG.
+
+    ``view``: the OCIO view the pixels were encoded with (recorded as ``pavonine:view``); ``None``
+    for images that are not renders (heat-maps).
+    """
     import OpenImageIO as oiio
 
-    pixels = _check_rgb(rgb)
-    display = display_encode(np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0), view=view)
-    encoded = np.round(np.clip(display, 0.0, 1.0) * 255.0).astype(np.uint8)
-    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, oiio.UINT8)
+    pixels = np.asarray(display, dtype=np.float32)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    if pixels.ndim != 3 or pixels.shape[2] not in (1, 3, 4):
+        raise ValueError(f"expected an H×W×1, ×3 or ×4 image, got shape {pixels.shape}")
+    encoded = np.round(np.clip(np.nan_to_num(pixels), 0.0, 1.0) * 255.0).astype(np.uint8)
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.UINT8)
     spec.attribute("oiio:ColorSpace", "srgb_rec709_display")
-    spec.attribute("Software", f"pavonine (OCIO view {view!r})")
-    _write(path, encoded, spec)
+    if view is None:
+        spec.attribute("Software", "pavonine")
+    else:
+        spec.attribute("Software", f"pavonine (OCIO view {view!r})")
+        spec.attribute("pavonine:view", view)
+    _write(path, np.ascontiguousarray(encoded), spec)
+
+
+def display_views() -> list[str]:
+    """The OCIO views of the display PNGs are encoded for (``sRGB - Display``)."""
+    return list(_ocio_views())
+
+
+def check_view(view: str) -> str:
+    """``view`` if the OCIO config has it for the display, else a one-line :class:`InputError`."""
+    views = _ocio_views()
+    if view not in views:
+        known = ", ".join(repr(v) for v in views)
+        raise InputError("--view", f"unknown OCIO view {view!r} for {DISPLAY!r} (views: {known})")
+    return view
+
+
+def png_view(attributes: Mapping[str, Any]) -> str | None:
+    """The OCIO view a PNG written by :func:`write_png` was encoded with (``None`` if unknown)."""
+    view = attributes.get("pavonine:view")
+    if isinstance(view, str) and view:
+        return view
+    match = re.fullmatch(r"pavonine \(OCIO view '(.+)'\)", str(attributes.get("Software", "")))
+    return match.group(1) if match else None
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Raise a one-line :class:`InputError` unless a file can be created at ``path``.
+
+    Probes the output's folder (or, if it does not exist yet, its nearest existing ancestor,
+    which :func:`atomic_path` would create the rest in) with a temporary file, so that an
+    unwritable output is found before a long render rather than after it.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(str(path), "is a folder, expected a file name")
+    folder = target.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise InputError(str(path), f"cannot write here: {folder} is not a folder")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".pavonine-probe.", dir=folder)
+    except OSError as exc:
+        raise InputError(str(path), f"cannot write here ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def write_render(
+    exr_path: str | os.PathLike,
+    rgb: np.ndarray,
+    metadata: Mapping[str, Any] | None = None,
+    *,
+    png_path: str | os.PathLike | None = None,
+    view: str = DEFAULT_VIEW,
+) -> None:
+    """Write a render's EXR and (optionally) its display PNG: both appear, or neither does."""
+    with contextlib.ExitStack() as stack:
+        exr_tmp = stack.enter_context(atomic_path(exr_path))
+        png_tmp = stack.enter_context(atomic_path(png_path)) if png_path is not None else None
+        write_exr(exr_tmp, rgb, metadata)
+        if png_tmp is not None:
+            write_png(png_tmp, rgb, view=view)
 
 
 def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
@@ -71,6 +164,13 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
     finally:
         image.close()
     return np.asarray(pixels), attributes
+
+
+@functools.cache
+def _ocio_views() -> tuple[str, ...]:
+    import PyOpenColorIO as ocio
+
+    return tuple(ocio.Config.CreateFromFile(OCIO_CONFIG).getViews(DISPLAY))
 
 
 def _check_rgb(rgb: np.ndarray) -> np.ndarray:

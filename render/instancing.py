@@ -40,7 +40,7 @@ class InstanceTable:
     world_bounds: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
     def add_prototype(self, key: str, shapes: list, bounds) -> Prototype:
-        group_id = f"group_{len(self.groups)}"
+        group_id = f"shapegroup_{len(self.groups)}"
         if shapes:
             group: dict = {"type": "shapegroup"}
             group.update({f"shape_{i}": s for i, s in enumerate(shapes)})

@@ -17,6 +17,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 from pavonine.render.diagnostics import Diagnostics
@@ -26,6 +27,8 @@ FEATHER_UV = "pavonine:featherUV"
 BARB_TANGENT = "pavonine:barbTangent"
 DEFAULT_GREY = 0.5
 COLOR_INPUTS = ("diffuseColor", "emissiveColor", "specularColor")
+#: UsdUVTexture outputs → channels of the RGBA texel
+CHANNELS = {"rgb": (0, 1, 2), "r": (0,), "g": (1,), "b": (2,), "a": (3,)}
 
 
 @dataclass
@@ -132,9 +135,27 @@ def preview_surface_bsdf(
     clearcoat_roughness = _constant(shader, "clearcoatRoughness", 0.01, time)
     bsdf["clearcoat_gloss"] = 1.0 - float(clearcoat_roughness)
     opacity = _input_value(shader, "opacity", 1.0, time, diag, uv_names)
+    threshold = float(_constant(shader, "opacityThreshold", 0.0, time))
+    if threshold > 0.0:
+        opacity = _opacity_cutout(opacity, threshold, str(shader.GetPath()), diag)
     if not (isinstance(opacity, float) and opacity >= 1.0):
         bsdf = {"type": "mask", "opacity": opacity, "bsdf": bsdf}
     return bsdf, (uv_names[0] if uv_names else "st")
+
+
+def _opacity_cutout(opacity: Any, threshold: float, where: str, diag: Diagnostics) -> Any:
+    """``opacityThreshold`` > 0: opacity below it is 0, the rest 1 (UsdPreviewSurface spec)."""
+    if isinstance(opacity, float):
+        return 1.0 if opacity >= threshold else 0.0
+    if isinstance(opacity, dict) and opacity.get("type") == "bitmap":
+        import mitsuba as mi
+
+        values = np.atleast_3d(np.array(opacity["bitmap"], dtype=np.float32))
+        if values.shape[2] == 1 and opacity.get("raw"):
+            cut = (values >= threshold).astype(np.float32)
+            return {**opacity, "bitmap": mi.Bitmap(cut)}
+    diag.warn(where, "opacityThreshold applies to one-channel opacity only; ignored")
+    return opacity
 
 
 def _surface_shader(material: UsdShade.Material) -> UsdShade.Shader | None:
@@ -210,13 +231,68 @@ def _texture(
     is_colour = input_name in COLOR_INPUTS and output_name == "rgb"
     raw = space == "raw" or (space == "auto" and not is_colour)
     uv_names.append(_uv_primvar_name(shader, time))
-    wrap = str(_constant(shader, "wrapS", "repeat", time))
-    return {
-        "type": "bitmap",
-        "bitmap": bitmap,
-        "raw": bool(raw),
-        "wrap_mode": {"clamp": "clamp", "mirror": "mirror"}.get(wrap, "repeat"),
-    }
+    wrap = _wrap_mode(shader, time, diag)
+    scale = np.asarray(_constant(shader, "scale", (1.0, 1.0, 1.0, 1.0), time), dtype=np.float64)
+    bias = np.asarray(_constant(shader, "bias", (0.0, 0.0, 0.0, 0.0), time), dtype=np.float64)
+    identity = np.array_equal(scale, np.ones(4)) and not np.any(bias)
+    if output_name == "rgb" and identity:
+        return {"type": "bitmap", "bitmap": bitmap, "raw": bool(raw), "wrap_mode": wrap}
+    channels = CHANNELS.get(output_name)
+    if channels is None:
+        diag.warn(
+            where, f"UsdUVTexture output {output_name!r} is not supported; using its fallback"
+        )
+        return None
+    # A named channel (or scale/bias): decode in numpy, as UsdUVTexture defines it:
+    # value = decoded texel · scale + bias, per channel (UsdPreviewSurface spec, UsdUVTexture).
+    texels = texel_values(bitmap, decode_srgb=not raw)
+    values = np.stack([texels[:, :, c] for c in channels], axis=2) * scale[list(channels)]
+    values = values + bias[list(channels)]
+    import mitsuba as mi
+
+    linear = mi.Bitmap(np.ascontiguousarray(values, dtype=np.float32))
+    # colour: linear floats, spectrally upsampled (raw=False); one channel: data (raw=True)
+    return {"type": "bitmap", "bitmap": linear, "raw": len(channels) == 1, "wrap_mode": wrap}
+
+
+def texel_values(bitmap, decode_srgb: bool) -> np.ndarray:
+    """H×W×4 float RGBA in [0, 1] of a ``mi.Bitmap``, as ``UsdUVTexture`` reads a file.
+
+    Integer formats are normalised; grey images give r = g = b; a missing alpha is 1. With
+    ``decode_srgb`` the colour channels of an sRGB-encoded file are linearised with the sRGB
+    transfer function (IEC 61966-2-1); alpha is always linear.
+    """
+    pixels = np.array(bitmap)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    if np.issubdtype(pixels.dtype, np.integer):
+        values = pixels.astype(np.float64) / float(np.iinfo(pixels.dtype).max)
+    else:
+        values = pixels.astype(np.float64)
+    count = values.shape[2]
+    colour = values[:, :, :3] if count >= 3 else np.repeat(values[:, :, :1], 3, axis=2)
+    alpha = values[:, :, 3:4] if count >= 4 else values[:, :, 1:2] if count == 2 else None
+    if alpha is None:
+        alpha = np.ones((*colour.shape[:2], 1))
+    if decode_srgb and bitmap.srgb_gamma():
+        colour = np.where(
+            colour <= 0.04045, colour / 12.92, ((colour + 0.055) / 1.055) ** 2.4
+        )  # sRGB EOTF, IEC 61966-2-1:1999
+    return np.concatenate([colour, alpha], axis=2)
+
+
+def _wrap_mode(shader: UsdShade.Shader, time: Usd.TimeCode, diag: Diagnostics) -> str:
+    """Mitsuba's one ``wrap_mode`` for ``wrapS``/``wrapT`` (a warning when they cannot be kept)."""
+    wrap_s = str(_constant(shader, "wrapS", "useMetadata", time))
+    wrap_t = str(_constant(shader, "wrapT", "useMetadata", time))
+    modes = {"clamp": "clamp", "mirror": "mirror", "repeat": "repeat", "useMetadata": "repeat"}
+    if wrap_s != wrap_t or wrap_s not in modes:
+        diag.warn(
+            str(shader.GetPath()),
+            f"wrapS {wrap_s!r} / wrapT {wrap_t!r}: Mitsuba has one wrap mode (repeat, clamp or "
+            f"mirror); using {modes.get(wrap_s, 'repeat')!r}",
+        )
+    return modes.get(wrap_s, "repeat")
 
 
 def load_bitmap(path: str, where: str, diag: Diagnostics):

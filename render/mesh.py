@@ -19,6 +19,7 @@ from pxr import Usd, UsdGeom, UsdShade
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.xform import (
     flips_handedness,
+    normalize,
     transform_directions,
     transform_normals,
     transform_points,
@@ -59,6 +60,13 @@ class TriangleMesh:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.positions.min(axis=0), self.positions.max(axis=0)
+
+    def area(self) -> float:
+        """Total triangle area, in the units of ``positions`` squared."""
+        p = self.positions.astype(np.float64)[self.faces]
+        return float(
+            0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum()
+        )
 
 
 def read_topology(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> Topology | None:
@@ -255,10 +263,17 @@ def build_triangle_mesh(
 
     if normals is not None:
         n = corner_values(normals, "normals")
-        if n is not None and np.all(np.isfinite(n)):
-            n = transform_normals(n, matrix_usd)
-            if np.all(np.linalg.norm(n, axis=1) > 0.5):
-                out.normals = n.astype(np.float32)
+        if n is not None:
+            n = transform_normals(np.nan_to_num(n, nan=0.0, posinf=0.0, neginf=0.0), matrix_usd)
+            bad = np.linalg.norm(n, axis=1) < 0.5  # zero, NaN or infinite as authored
+            if np.any(bad):
+                diag.warn(
+                    where,
+                    f"{int(bad.sum())} of {len(n)} normals are zero, NaN or infinite; "
+                    "face normals used for those",
+                )
+                n[bad] = face_normals_at_vertices(out.positions, out.faces)[bad]
+            out.normals = n.astype(np.float32)
     if uv is not None:
         t = corner_values(uv, uv_primvar)
         if t is not None and t.shape[1] >= 2 and np.all(np.isfinite(t)):
@@ -274,6 +289,21 @@ def build_triangle_mesh(
         # BSDF reads the attribute on every mesh of its material, so supply dp/du instead.
         out.attributes[mi_name] = uv_tangents(out.positions, out.faces, out.texcoords)
     return out
+
+
+def face_normals_at_vertices(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit area-weighted mean of the geometric normals of the triangles around each vertex.
+
+    Follows the faces' winding (Mitsuba's geometric normal ``(p1 − p0) × (p2 − p0)``); a vertex
+    used by no triangle, or only by degenerate ones, gets the zero vector.
+    """
+    p = positions.astype(np.float64)
+    a, b, c = (p[faces[:, i]] for i in range(3))
+    per_face = np.cross(b - a, c - a)
+    normals = np.zeros_like(p)
+    for i in range(3):
+        np.add.at(normals, faces[:, i], per_face)
+    return normalize(normals)
 
 
 def uv_tangents(positions: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -> np.ndarray:
@@ -301,12 +331,14 @@ def uv_tangents(positions: np.ndarray, faces: np.ndarray, uv: np.ndarray | None)
     )
 
 
-def to_mitsuba_mesh(triangle_mesh: TriangleMesh, bsdf) -> object:
-    """An ``mi.Mesh`` with the given BSDF object attached."""
+def to_mitsuba_mesh(triangle_mesh: TriangleMesh, bsdf, emitter=None) -> object:
+    """An ``mi.Mesh`` with the given BSDF object (and optionally an area emitter) attached."""
     import mitsuba as mi
 
     props = mi.Properties()
     props["bsdf"] = bsdf
+    if emitter is not None:
+        props["emitter"] = emitter
     m = mi.Mesh(
         triangle_mesh.name,
         len(triangle_mesh.positions),
@@ -316,13 +348,16 @@ def to_mitsuba_mesh(triangle_mesh: TriangleMesh, bsdf) -> object:
         has_vertex_texcoords=triangle_mesh.texcoords is not None,
     )
     params = mi.traverse(m)
-    params["vertex_positions"] = mi.Float(triangle_mesh.positions.ravel())
-    params["faces"] = mi.UInt32(triangle_mesh.faces.ravel())
+    # Buffers in the parameters' own types: ``mi.Float(ndarray)`` only exists in JIT variants,
+    # the scalar variants' dynamic arrays are ``drjit.scalar.ArrayXf``/``ArrayXu``.
+    floats, indices = type(params["vertex_positions"]), type(params["faces"])
+    params["vertex_positions"] = floats(triangle_mesh.positions.ravel())
+    params["faces"] = indices(triangle_mesh.faces.ravel())
     if triangle_mesh.normals is not None:
-        params["vertex_normals"] = mi.Float(triangle_mesh.normals.ravel())
+        params["vertex_normals"] = floats(triangle_mesh.normals.ravel())
     if triangle_mesh.texcoords is not None:
-        params["vertex_texcoords"] = mi.Float(triangle_mesh.texcoords.ravel())
+        params["vertex_texcoords"] = floats(triangle_mesh.texcoords.ravel())
     params.update()
     for name, values in triangle_mesh.attributes.items():
-        m.add_attribute(name, values.shape[1], mi.Float(values.ravel()))
+        m.add_attribute(name, values.shape[1], floats(values.ravel()))
     return m

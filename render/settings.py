@@ -11,9 +11,29 @@ from dataclasses import dataclass
 
 from pxr import Usd, UsdRender
 
+from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
 
 DEFAULT_RESOLUTION = (512, 512)
+
+
+def parse_resolution(text: str, where: str = "--resolution") -> tuple[int, int]:
+    """``"512x768"`` → (512, 768); ``"256"`` → (256, 256). Anything else is an :class:`InputError`.
+
+    The one parser of image sizes given on the command line (``render``, ``baseline``, ``demo``).
+    """
+    parts = str(text).strip().lower().split("x")
+    try:
+        size = [int(p) for p in parts]
+    except ValueError:
+        size = []
+    if len(size) == 1:
+        size *= 2
+    if len(size) != 2:
+        raise InputError(where, f"expected WIDTHxHEIGHT (e.g. 512x512), got {text!r}")
+    if min(size) < 1:
+        raise InputError(where, f"width and height must be positive, got {text!r}")
+    return size[0], size[1]
 
 
 @dataclass

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from pavonine.pipeline import baselines
 from pavonine.pipeline.baselines import (
-    RenderSettings,
+    CheckSettings,
     SceneRender,
     baseline_for,
     check_stage,
@@ -26,7 +26,7 @@ from pavonine.pipeline.compare import read_image
 
 
 # ------------------------------------------------------------ stand-in renderer (fast, no Mitsuba)
-def fake_render(stage, settings: RenderSettings, *, progress: bool = False) -> SceneRender:
+def fake_render(stage, settings: CheckSettings, *, progress: bool = False) -> SceneRender:
     """A smooth image whose brightness is read from the 'stage' text, with Monte Carlo-like noise.
 
     The per-sample relative spread is 50 %, so the estimate's variance is ``(0.5·truth)²/spp``;
@@ -88,6 +88,10 @@ def test_baseline_update_writes_mean_variance_preview_and_record(fake_repo: Path
     assert info["flip_threshold"] >= max(info["calibration"]["flip_mean"])
     assert "pavonine baseline update eye" in info["command"]
     assert read_image(folder / "mean.exr").size == (96, 96)
+    from pavonine.render.imageio import read_exr
+
+    for name in ("mean.exr", "variance.exr"):  # both say which space their values are in
+        assert read_exr(folder / name)[1]["oiio:ColorSpace"] == "lin_rec709_scene"
     assert not (fake_repo / "baselines" / "blue").exists()  # nothing updated implicitly
     listing = invoke("baseline", "list", *dirs(fake_repo))
     assert "eye" in listing.output and "missing" in listing.output

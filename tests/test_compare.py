@@ -18,9 +18,9 @@ from pavonine.pipeline.compare import (
     read_image,
     sidak_alpha,
     stat_test,
-    write_exr,
-    write_png,
 )
+from pavonine.render.imageio import write_display_png as write_png
+from pavonine.render.imageio import write_exr
 
 SIZE = 64
 
@@ -140,6 +140,24 @@ def test_display_encoding_is_the_srgb_curve_and_inverts():
     assert encoded == pytest.approx(np.clip(expected, 0, 1), abs=2e-4)
     inside = linear[linear <= 1.0]
     assert display_decode(encoded)[linear <= 1.0] == pytest.approx(inside, abs=1e-4)
+
+
+def test_png_is_decoded_with_the_view_it_was_written_with(tmp_path):
+    from pavonine.render.imageio import write_png as write_render_png
+
+    aces = "ACES 2.0 - SDR 100 nits (Rec.709)"
+    linear = smooth_image(16) * 0.8
+    write_render_png(tmp_path / "aces.png", linear, view=aces)
+    image = read_image(tmp_path / "aces.png")
+    assert image.view == aces
+    assert image.rgb == pytest.approx(linear, abs=0.03)  # back to scene-linear, 8-bit rounding
+    assert read_image(tmp_path / "aces.png", view="Un-tone-mapped").rgb != pytest.approx(
+        linear, abs=0.03
+    )
+    result = CliRunner().invoke(
+        cli, ["compare", str(tmp_path / "aces.png"), str(tmp_path / "aces.png"), "--view", "Nope"]
+    )
+    assert result.exit_code == 2 and "--view" in result.output
 
 
 def test_flip_passes_noise_and_fails_a_swapped_image():

@@ -10,6 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
+from pavonine.pipeline.errors import InputError
 from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.imageio import read_exr
@@ -134,3 +135,87 @@ def test_shipped_scene_renders_the_feather_in_colour(tmp_path):
     assert result.metadata["camera"] == "/World/Camera"
     centre = result.rgb[16:32, 10:22].reshape(-1, 3).mean(axis=0)
     assert centre.max() > 0.1 and centre.max() > 2.0 * centre.min()  # saturated, not grey
+
+
+# -- options are checked before the render; outputs appear together or not at all ---------------
+
+
+def fail_if_rendered(monkeypatch):
+    import pavonine.render.api as api
+
+    def render_stage(*args, **kwargs):
+        raise AssertionError("render_stage must not run for bad options")
+
+    monkeypatch.setattr(api, "render_stage", render_stage)
+
+
+def one_error_line(result) -> str:
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert lines[0].startswith("error: ") and "Traceback" not in result.output
+    return lines[0]
+
+
+def test_unknown_view_is_a_one_line_error_before_rendering(tmp_path, monkeypatch):
+    fail_if_rendered(monkeypatch)
+    out = tmp_path / "v.exr"
+    result = run(DATA / "bare_quad.usda", "-o", out, "--png", "--view", "Bogus View", "-q")
+    line = one_error_line(result)
+    assert "--view" in line and "'Bogus View'" in line and "'Un-tone-mapped'" in line
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("where", ["file", "proc"])
+def test_unwritable_output_is_a_one_line_error_before_rendering(tmp_path, monkeypatch, where):
+    fail_if_rendered(monkeypatch)
+    (tmp_path / "plain").write_text("not a folder")
+    out = tmp_path / "plain" / "x.exr" if where == "file" else Path("/proc/pavonine_x.exr")
+    line = one_error_line(run(DATA / "bare_quad.usda", "-o", out, "-q"))
+    assert str(out) in line
+
+
+def test_png_out_must_be_a_png(tmp_path, monkeypatch):
+    fail_if_rendered(monkeypatch)
+    result = run(DATA / "bare_quad.usda", "-o", tmp_path / "w.exr", "--png-out", tmp_path / "w.jpg")
+    assert "must name a .png file" in one_error_line(result)
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.render
+def test_png_flag_before_the_stage_is_a_flag(tmp_path):
+    out = tmp_path / "flag.exr"
+    args = ("--png", DATA / "bare_quad.usda", "-o", out, "--spp", 1, "--resolution", "8x8", "-q")
+    result = run(*args)
+    assert result.exit_code == 0, result.output
+    assert out.is_file() and (tmp_path / "flag.png").is_file()
+    png = tmp_path / "named" / "look.png"
+    result = run(*args, "--png-out", png, "--view", "ACES 2.0 - SDR 100 nits (Rec.709)")
+    assert result.exit_code == 0, result.output
+    assert png.is_file()
+
+
+def test_exr_and_png_are_written_together_or_not_at_all(tmp_path, monkeypatch):
+    from pavonine.render import imageio
+
+    rgb = np.full((4, 4, 3), 0.5, np.float32)
+    imageio.write_render(tmp_path / "ok.exr", rgb, {"spp": 1}, png_path=tmp_path / "ok.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.exr", "ok.png"]
+
+    def broken_png(path, rgb, view=imageio.DEFAULT_VIEW):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(imageio, "write_png", broken_png)
+    with pytest.raises((OSError, InputError)):
+        imageio.write_render(tmp_path / "x.exr", rgb, png_path=tmp_path / "x.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.exr", "ok.png"]  # no x.*, no temps
+
+
+def test_resolution_parser_shared_by_every_command():
+    from pavonine.render.settings import parse_resolution
+
+    assert parse_resolution("64x48") == (64, 48)
+    assert parse_resolution(" 32X16 ") == (32, 16)
+    assert parse_resolution("96") == (96, 96)
+    for bad in ("12by4", "0x5", "1x2x3", "", "-4x4"):
+        with pytest.raises(InputError, match="--resolution"):
+            parse_resolution(bad)

@@ -206,3 +206,78 @@ def test_render_settings_and_product_override():
     settings.CreateProductsRel().SetTargets(["/Render/Product"])
     spec = read_render_settings(stage, Diagnostics())
     assert spec.resolution == (48, 24) and spec.pixel_aspect == 2.0 and spec.camera == "/Cam"
+
+
+def test_scene_ids_are_unique_and_prefixed_by_kind():
+    from pavonine.render.api import scene_objects
+
+    shapes = {"/a/b#0": "ab", "/a__b#0": "a__b", "shapegroup_0": "group", "instance_0": "inst"}
+    emitters = {"/shapegroup_0": "light at /shapegroup_0", "/a/b#0": "light", "default_sky": "sky"}
+    objects = scene_objects(shapes, emitters)
+    assert sorted(objects.values()) == sorted([*shapes.values(), *emitters.values()])
+    assert objects["shapegroup_0"] == "group" and objects["default_sky"] == "sky"
+    assert {k for k, v in objects.items() if v in ("ab", "a__b")} == {
+        "mesh_a__b_0",
+        "mesh_a__b_0_1",
+    }
+    assert all("." not in k and "/" not in k for k in objects)
+
+
+def test_prims_whose_ids_used_to_collide_all_render():
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.Xform.Define(stage, "/a")
+    quad(stage, "/a/b", z=0.0)
+    quad(stage, "/a__b", z=1.0)
+    scene, _ = sync(stage)
+    from pavonine.render.api import scene_objects
+
+    assert len(scene_objects(scene.shapes, scene.emitters)) == 2
+
+
+def test_first_line_is_the_first_informative_line():
+    from pavonine.render.diagnostics import first_line
+
+    assert first_line(ValueError("Error in 'Open'\nthe real reason\nmore")) == "the real reason"
+    assert first_line(RuntimeError("[parser.cpp:444] bad node\n  - detail")) == "bad node"
+    assert first_line(RuntimeError("")) == "RuntimeError"
+
+
+def test_one_zero_normal_keeps_the_others_with_a_warning():
+    stage = Usd.Stage.CreateInMemory()
+    mesh = quad(stage, "/Bent")
+    normals = [(0.6, 0, 0.8), (0, 0, 1), (0, 0, 0), (0, 0.6, 0.8)]
+    mesh.CreateNormalsAttr(normals)
+    mesh.SetNormalsInterpolation("vertex")
+    scene, diag = sync(stage)
+    n = mesh_params(next(iter(scene.shapes.values())))["vertex_normals"].reshape(-1, 3)
+    p = mesh_params(next(iter(scene.shapes.values())))["vertex_positions"].reshape(-1, 3)
+    for point, normal in zip(p, n, strict=True):
+        i = [(-1, -1), (1, -1), (1, 1), (-1, 1)].index((round(point[0]), round(point[1])))
+        expected = (0, 0, 1) if i == 2 else normals[i]  # the zero one: the face normal
+        assert normal == pytest.approx(expected, abs=1e-6)
+    assert any(m.startswith("/Bent: 1 of 4 normals are zero") for m in diag.messages)
+
+
+def test_mesh_light_is_an_area_emitter_and_replaces_the_default_lights(tmp_path):
+    from pxr import UsdLux
+
+    from pavonine.render.api import render_stage
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "glow.usda"))
+    glow = quad(stage, "/Glow", size=0.4)
+    UsdLux.MeshLightAPI.Apply(glow.GetPrim())
+    light = UsdLux.LightAPI(glow.GetPrim())
+    light.CreateIntensityAttr(2.0)
+    light.CreateColorAttr(Gf.Vec3f(1.0, 0.2, 0.2))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    stage.Save()
+    scene, diag = sync(stage)
+    assert scene.mesh_lights == 1 and not diag.messages
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        result = render_stage(str(tmp_path / "glow.usda"), spp=2, resolution=(8, 8), progress=False)
+    centre = result.rgb[3:5, 3:5].reshape(-1, 3).mean(axis=0)
+    # seen directly: the emitted radiance L = intensity · colour (no sun, no sky added)
+    assert centre == pytest.approx([2.0, 0.4, 0.4], rel=0.1)
+    assert result.rgb[0, 0].max() < 1e-6

@@ -9,7 +9,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.render.api import render_stage
-from pavonine.render.diagnostics import StageWarning
+from pavonine.render.diagnostics import Diagnostics, StageWarning
 
 pytestmark = pytest.mark.render
 
@@ -118,3 +118,126 @@ def test_point_instancer_draws_every_instance(tmp_path):
     instancer.CreateIdsAttr([0, 1, 2])
     row = render(stage).mean(axis=2)[16] > 0.1
     assert np.count_nonzero(np.diff(row.astype(int)) == 1) + int(row[0]) == 2
+
+
+@pytest.fixture
+def restore_variant():
+    from pavonine.backend import select_variant
+
+    previous = select_variant().variant
+    yield previous
+    select_variant(previous)
+
+
+def test_scalar_variant_renders_a_preview_surface_quad(tmp_path, restore_variant):
+    """The fallback without libLLVM: a red quad under a sun of E = π reads its diffuse colour."""
+    stage = base_stage(tmp_path / "scalar.usda")
+    mesh = square(stage, "/Quad", -1, 1, -1, 1)
+    material = preview(stage, "/Looks/Red", color=(0.8, 0.2, 0.1))
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        result = render_stage(
+            stage.GetRootLayer().realPath,
+            spp=2,
+            resolution=(8, 8),
+            variant="scalar_spectral",
+            progress=False,
+        )
+    assert result.metadata["variant"] == "scalar_spectral"
+    centre = result.rgb[2:6, 2:6].reshape(-1, 3).mean(axis=0)
+    assert centre == pytest.approx([0.8, 0.2, 0.1], abs=0.1)
+
+
+def rgba_texture(path, rgba: np.ndarray) -> str:
+    import OpenImageIO as oiio
+
+    spec = oiio.ImageSpec(rgba.shape[1], rgba.shape[0], 4, oiio.UINT8)
+    spec.attribute("oiio:UnassociatedAlpha", 1)  # store the alpha channel as it is
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec) and out.write_image(rgba)
+    out.close()
+    return str(path)
+
+
+def channel_material(stage, path, texture, wiring, **texture_inputs):
+    """A preview surface whose inputs read texture channels: ``wiring`` = {input: output}."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set((0.8, 0.8, 0.8))
+    tex = UsdShade.Shader.Define(stage, f"{path}/Maps")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(texture)
+    for name, (kind, value) in texture_inputs.items():
+        tex.CreateInput(name, kind).Set(value)
+    for usd_input, output in wiring.items():
+        shader.CreateInput(usd_input, Sdf.ValueTypeNames.Float).ConnectToSource(
+            tex.ConnectableAPI(), output
+        )
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material, shader
+
+
+def test_texture_channels_scale_and_bias_reach_their_inputs(tmp_path):
+    from pavonine.render.materials import preview_surface_bsdf
+
+    rgba = np.zeros((4, 4, 4), np.uint8)
+    rgba[..., 0], rgba[..., 1], rgba[..., 2] = 255, 51, 0  # r = 1, g = 0.2, b = 0
+    rgba[:, :2, 3], rgba[:, 2:, 3] = 0, 255  # alpha: left half 0, right half 1
+    texture = rgba_texture(tmp_path / "maps.png", rgba)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "channels.usda"))
+    _, shader = channel_material(
+        stage, "/Looks/M", texture, {"metallic": "r", "roughness": "g", "opacity": "a"},
+        scale=(Sdf.ValueTypeNames.Float4, (1.0, 0.5, 1.0, 1.0)),
+        bias=(Sdf.ValueTypeNames.Float4, (0.0, 0.1, 0.0, 0.0)),
+    )  # fmt: skip
+    diag = Diagnostics()
+    bsdf, _ = preview_surface_bsdf(shader, Usd.TimeCode.Default(), diag)
+    assert bsdf["type"] == "mask" and not diag.messages
+
+    def values(texture_dict):
+        assert texture_dict["type"] == "bitmap" and texture_dict["raw"]
+        return np.atleast_3d(np.array(texture_dict["bitmap"]))[..., 0]
+
+    np.testing.assert_allclose(values(bsdf["bsdf"]["metallic"]), 1.0)
+    np.testing.assert_allclose(values(bsdf["bsdf"]["roughness"]), 0.2 * 0.5 + 0.1, atol=1e-6)
+    np.testing.assert_array_equal(values(bsdf["opacity"])[:, :2], 0.0)
+    np.testing.assert_array_equal(values(bsdf["opacity"])[:, 2:], 1.0)
+
+
+def test_opacity_threshold_and_unequal_wrap_modes(tmp_path):
+    from pavonine.render.materials import preview_surface_bsdf
+
+    rgba = np.full((2, 2, 4), 255, np.uint8)
+    rgba[0, :, 3] = 102  # alpha 0.4 on the top row
+    texture = rgba_texture(tmp_path / "cut.png", rgba)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "cut.usda"))
+    _, shader = channel_material(
+        stage, "/Looks/Cut", texture, {"opacity": "a"},
+        wrapS=(Sdf.ValueTypeNames.Token, "clamp"), wrapT=(Sdf.ValueTypeNames.Token, "repeat"),
+    )  # fmt: skip
+    shader.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(0.5)
+    diag = Diagnostics()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        bsdf, _ = preview_surface_bsdf(shader, Usd.TimeCode.Default(), diag)
+    opacity = np.atleast_3d(np.array(bsdf["opacity"]["bitmap"]))[..., 0]
+    np.testing.assert_array_equal(opacity, [[0.0, 0.0], [1.0, 1.0]])
+    assert any(
+        m.startswith("/Looks/Cut/Maps: wrapS 'clamp' / wrapT 'repeat'") for m in diag.messages
+    )
+
+
+def test_alpha_channel_cuts_the_quad_out(tmp_path):
+    rgba = np.full((4, 4, 4), 255, np.uint8)
+    rgba[:, :2, 3] = 0  # left half transparent
+    texture = rgba_texture(tmp_path / "alpha.png", rgba)
+    stage = base_stage(tmp_path / "alpha.usda")
+    mesh = square(stage, "/Quad", -1, 1, -1, 1)
+    material, _ = channel_material(stage, "/Looks/A", texture, {"opacity": "a"})
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    rgb = render(stage)
+    left, right = rgb[12:20, 10:14].mean(), rgb[12:20, 18:22].mean()
+    assert left < 0.02 and right > 0.3
