@@ -186,14 +186,16 @@ def dome_light(
 def default_lights(
     camera_to_world: np.ndarray, up: np.ndarray, scene_center: np.ndarray, scene_radius: float
 ) -> dict:
-    """A sun from the camera's right and above (as in the paper's Fig. 13) and a pale-blue sky.
+    """A sun from the camera's right and a little above (as in the paper's Fig. 13) and a pale-blue sky.
 
-    The sun's illuminance is π, so a white Lambertian surface facing it has radiance 1.
+    The sun is about 26° off the viewing direction, so a feather facing the camera shows its
+    structural colour: the mirror lobe (crescent spread 15°) then reaches the camera. The sun's
+    illuminance is π, so a white Lambertian surface facing it has radiance 1.
     """
     right = -camera_to_world[:3, 0]  # Mitsuba camera's local +X points left
     forward = camera_to_world[:3, 2]
     up = np.asarray(up, dtype=np.float64)
-    toward_sun = right * 0.8 + up * 0.45 - forward * 0.4
+    toward_sun = right * 0.42 + up * 0.12 - forward * 0.9
     sun = distant_light(np.full(3, math.pi), True, 0.53, -toward_sun, scene_center, scene_radius)
     sky = {"type": "constant", "radiance": _rgb([0.06, 0.08, 0.11])}
     return {"default_sun": sun, "default_sky": sky}
