@@ -124,15 +124,6 @@ def test_flat_patch_matches_the_optics_model_and_interval_shifts_hue(tmp_path):
     )
 
 
-@pytest.fixture
-def restore_variant():
-    from pavonine.backend import select_variant
-
-    previous = select_variant().variant
-    yield previous
-    select_variant(previous)
-
-
 def test_scalar_variant_renders_the_feather_patch(tmp_path, restore_variant):
     """The fallback without libLLVM renders the feather BSDF too (8×8, 2 spp: a loose check)."""
     params = one_class()

@@ -120,15 +120,6 @@ def test_point_instancer_draws_every_instance(tmp_path):
     assert np.count_nonzero(np.diff(row.astype(int)) == 1) + int(row[0]) == 2
 
 
-@pytest.fixture
-def restore_variant():
-    from pavonine.backend import select_variant
-
-    previous = select_variant().variant
-    yield previous
-    select_variant(previous)
-
-
 def test_scalar_variant_renders_a_preview_surface_quad(tmp_path, restore_variant):
     """The fallback without libLLVM: a red quad under a sun of E = π reads its diffuse colour."""
     stage = base_stage(tmp_path / "scalar.usda")
