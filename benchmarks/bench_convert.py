@@ -45,9 +45,9 @@ def main() -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from pavonine.pipeline.asset import write_geometry_layer
-    from pavonine.pipeline.convert import convert_recipe
-    from pavonine.pipeline.maps import generate_maps, write_maps
+    from pavonine.pipeline.convert.asset import write_geometry_layer
+    from pavonine.pipeline.convert.batch import convert_recipe
+    from pavonine.pipeline.maps.paint import generate_maps, write_maps
 
     work = Path(tempfile.mkdtemp(prefix="pavonine-bench-"))
     try:

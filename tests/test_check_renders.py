@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline import baselines
-from pavonine.pipeline.baselines import (
+from pavonine.pipeline.cli import cli
+from pavonine.pipeline.compare import baselines
+from pavonine.pipeline.compare.baselines import (
     CheckSettings,
     SceneRender,
     baseline_for,
@@ -21,8 +22,7 @@ from pavonine.pipeline.baselines import (
     shipped_scenes,
     update_baseline,
 )
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.compare import read_image
+from pavonine.pipeline.compare.methods import read_image
 
 
 # ------------------------------------------------------------ stand-in renderer (fast, no Mitsuba)
@@ -202,7 +202,7 @@ def _override(tmp_path: Path, name: str, edit, base: Path | None = None) -> Path
 
 def _dominant_class(material, map_attrs) -> int:
     """The ocellar class covering most of the feather (alpha-weighted), so the shift is visible."""
-    from pavonine.pipeline.maps import ocellar_class
+    from pavonine.pipeline.maps.paint import ocellar_class
     from pavonine.schemas.authoring import resolve_maps
 
     maps = resolve_maps(material)
@@ -269,7 +269,7 @@ def test_a_look_change_fails_stat(tmp_path: Path, perturb):
 @needs_eye
 def test_a_swapped_map_fails_stat(tmp_path: Path):
     """The eye feather with the eye maps authored, baselined afresh; then two maps swapped."""
-    from pavonine.pipeline.maps import generate_maps, write_maps
+    from pavonine.pipeline.maps.paint import generate_maps, write_maps
     from pavonine.schemas.authoring import author_maps
 
     paths = write_maps(generate_maps("eye", size=96), tmp_path / "maps")

@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
-from pavonine.pipeline.compare import (
+from pavonine.pipeline.compare.methods import (
     compare_arrays,
     display_decode,
     display_encode,

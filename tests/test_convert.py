@@ -14,15 +14,15 @@ import pytest
 from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
-from pavonine.pipeline.feather_mesh import (
+from pavonine.pipeline.convert.mesh import (
     FeatherFrame,
     edge_report,
     prefilter,
     st_overlap_fraction,
     triangle_areas,
 )
-from pavonine.pipeline.map_io import read_map, sample_bilinear, write_map
-from pavonine.pipeline.maps import MAP_NAMES, generate_maps, write_maps
+from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map
+from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
 from pavonine.schemas.plugin import PLUGIN_DIR
 
 LOD = {"high": 12_000, "medium": 4_000, "low": 1_000}
@@ -246,7 +246,7 @@ def test_moved_asset_renders(asset, tmp_path):
         "-q",
     )
     assert result.exit_code == 0, result.output
-    from pavonine.pipeline.map_io import read_map as read
+    from pavonine.pipeline.maps.io import read_map as read
 
     image = read(out, "render")
     assert image.max() > 0
@@ -396,7 +396,7 @@ def test_fractional_layer_count_fails_before_meshing_naming_the_recipe_key(workd
 
 
 def test_failed_write_leaves_no_output_folder(workdir, tmp_path, monkeypatch):
-    from pavonine.pipeline import convert
+    from pavonine.pipeline.convert import batch as convert
     from pavonine.pipeline.errors import InputError
 
     def fail(folder, *args):
@@ -429,7 +429,7 @@ def test_output_below_a_file_is_bad_input_on_one_line(workdir, tmp_path):
 def test_os_errors_in_a_worker_are_one_line_bad_input(monkeypatch):
     import errno
 
-    from pavonine.pipeline import convert
+    from pavonine.pipeline.convert import batch as convert
 
     def full_disk(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device", "/assets/eye_feather")
@@ -453,7 +453,7 @@ def test_batch_with_one_name_twice_is_rejected_before_converting(workdir, tmp_pa
 
 
 def test_commit_refuses_to_replace_an_asset_without_force(tmp_path):
-    from pavonine.pipeline.asset import commit_asset
+    from pavonine.pipeline.convert.asset import commit_asset
     from pavonine.pipeline.errors import InputError
 
     target = tmp_path / "eye_feather"

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pavonine.pipeline.feather_mesh import (
+from pavonine.pipeline.convert.mesh import (
     AtlasedMesh,
     barb_direction_field,
     build_atlas,

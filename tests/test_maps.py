@@ -10,8 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
-from pavonine.pipeline.map_io import read_map, sample_bilinear, write_map
-from pavonine.pipeline.maps import (
+from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map
+from pavonine.pipeline.maps.paint import (
     KINDS,
     MAP_NAMES,
     angle_degrees,

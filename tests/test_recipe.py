@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from pavonine.materials.parameters import preset
+from pavonine.pipeline.convert.recipe import GeometryOptions, LodTargets, parse_recipe
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.recipe import GeometryOptions, LodTargets, parse_recipe
 
 MINIMAL = """\
 name = "eye_feather"

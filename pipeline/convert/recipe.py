@@ -25,7 +25,7 @@ from pavonine.materials.parameters import (
     preset,
 )
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.maps import MAP_NAMES
+from pavonine.pipeline.maps.paint import MAP_NAMES
 
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.baselines import (
+from pavonine.pipeline.compare.baselines import (
     BASELINE_SETTINGS,
     BASELINES_DIR,
     CHECK_SETTINGS,
@@ -126,7 +126,7 @@ def list_baselines(scenes_dir: Path, baselines_dir: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from pavonine.pipeline.baselines import stage_sha256
+    from pavonine.pipeline.compare.baselines import stage_sha256
 
     table = Table(title=f"baselines in {relative_to_repo(baselines_dir)}")
     table.add_column("scene", no_wrap=True)

@@ -1,6 +1,6 @@
 """Generate ``docs/cli.md`` from the click commands themselves, so the reference cannot drift.
 
-python -m pavonine.pipeline.cli_reference > docs/cli.md
+python -m pavonine.pipeline.cli.reference > docs/cli.md
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pavonine.pipeline.cli import cli
 
 HEADER = """# `pavonine` command-line reference
 
-Generated from the commands' own help by `python -m pavonine.pipeline.cli_reference > docs/cli.md`;
+Generated from the commands' own help by `python -m pavonine.pipeline.cli.reference > docs/cli.md`;
 `tests/test_cli_reference.py` fails when this page is stale.
 
 Every command reports bad input as one line `error: <file or field>: <message>` on stderr and exits

@@ -41,7 +41,7 @@ def convert(recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool) -> N
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from pavonine.pipeline.convert import convert_many
+    from pavonine.pipeline.convert.batch import convert_many
 
     console = Console(stderr=True)
     # Only a terminal gets the (transient) bar: in a log or a pipe it would leave a blank line.

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from pavonine.pipeline.map_io import write_map
+from pavonine.pipeline.maps.io import write_map
 
 MAP_NAMES = ("alpha", "ocellar", "gradation", "angle", "displacement", "melanin")
 CLASS_COUNT = 6

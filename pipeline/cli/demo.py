@@ -12,7 +12,7 @@ FEATHER = "eye_feather"
 
 
 def _shipped(*parts: str) -> Path:
-    from pavonine.pipeline.baselines import REPO_ROOT
+    from pavonine.pipeline.compare.baselines import REPO_ROOT
 
     path = REPO_ROOT.joinpath("assets", *parts)
     if not path.exists():
@@ -64,8 +64,8 @@ def demo(outdir: Path, size: int, spp: int, resolution: str, seed: int) -> None:
     """
     from rich.console import Console
 
-    from pavonine.pipeline.convert import convert_recipe
-    from pavonine.pipeline.maps import generate_maps, write_contact_sheet, write_maps
+    from pavonine.pipeline.convert.batch import convert_recipe
+    from pavonine.pipeline.maps.paint import generate_maps, write_contact_sheet, write_maps
     from pavonine.render.api import render_stage
     from pavonine.render.imageio import write_render
     from pavonine.render.settings import parse_resolution

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.pipeline.compare import ComparisonResult
+from pavonine.pipeline.compare.methods import ComparisonResult
 from pavonine.pipeline.errors import atomic_path
 from pavonine.render.imageio import write_display_png, write_png
 

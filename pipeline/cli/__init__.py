@@ -1,13 +1,12 @@
 """The ``pavonine`` command line: a click group whose subcommands load lazily.
 
-Each subcommand lives in its own module (``pavonine.pipeline.cmd_*``); importing them lazily keeps
+Each subcommand lives in its own module (``pavonine.pipeline.cli.*``); importing them lazily keeps
 ``pavonine --help`` fast and keeps Mitsuba/USD out of commands that do not need them.
 """
 
 from __future__ import annotations
 
 import importlib
-import sys
 
 import click
 
@@ -15,18 +14,18 @@ from pavonine import __version__
 
 # command name -> "module:attribute"; one line per command.
 COMMANDS: dict[str, str] = {
-    "demo": "pavonine.pipeline.cmd_demo:demo",
-    "doctor": "pavonine.pipeline.cmd_doctor:doctor",
-    "spectra": "pavonine.pipeline.cmd_spectra:spectra",
-    "figures": "pavonine.pipeline.cmd_figures:figures",
-    "render": "pavonine.pipeline.cmd_render:render",
-    "validate": "pavonine.pipeline.cmd_validate:validate",
-    "env": "pavonine.pipeline.cmd_env:env",
-    "compare": "pavonine.pipeline.cmd_compare:compare",
-    "baseline": "pavonine.pipeline.cmd_baseline:baseline",
-    "check-renders": "pavonine.pipeline.cmd_check_renders:check_renders",
-    "maps": "pavonine.pipeline.cmd_maps:maps",
-    "convert": "pavonine.pipeline.cmd_convert:convert",
+    "demo": "pavonine.pipeline.cli.demo:demo",
+    "doctor": "pavonine.pipeline.cli.doctor:doctor",
+    "spectra": "pavonine.pipeline.cli.spectra:spectra",
+    "figures": "pavonine.pipeline.cli.figures:figures",
+    "render": "pavonine.pipeline.cli.render:render",
+    "validate": "pavonine.pipeline.cli.validate:validate",
+    "env": "pavonine.pipeline.cli.env:env",
+    "compare": "pavonine.pipeline.cli.compare:compare",
+    "baseline": "pavonine.pipeline.cli.baseline:baseline",
+    "check-renders": "pavonine.pipeline.cli.check_renders:check_renders",
+    "maps": "pavonine.pipeline.cli.maps:maps",
+    "convert": "pavonine.pipeline.cli.convert:convert",
 }
 
 
@@ -53,7 +52,3 @@ def cli() -> None:
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point."""
     cli.main(args=argv, prog_name="pavonine", standalone_mode=True)
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])

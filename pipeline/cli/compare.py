@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.compare import (
+from pavonine.pipeline.compare.methods import (
     FLIP_THRESHOLD,
     METHODS,
     PASS_RATIO,
@@ -122,7 +122,7 @@ def compare(
 
     Exit 0 when they agree, 1 when they differ, 2 on bad input. Writes a heat-map PNG per method.
     """
-    from pavonine.pipeline.compare import compare_arrays
+    from pavonine.pipeline.compare.methods import compare_arrays
     from pavonine.render.imageio import check_view, write_display_png
 
     if not 0 < significance < 1:
@@ -135,7 +135,7 @@ def compare(
         check_view(view)
 
     if ref.is_dir():
-        from pavonine.pipeline.baselines import load_baseline, options_for
+        from pavonine.pipeline.compare.baselines import load_baseline, options_for
 
         baseline = load_baseline(ref)
         ref_image = baseline.mean
@@ -192,7 +192,7 @@ def compare(
         with atomic_path(json_path) as tmp:
             tmp.write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
     if report is not None:
-        from pavonine.pipeline.report import SceneEntry, write_report
+        from pavonine.pipeline.compare.report import SceneEntry, write_report
 
         entry = SceneEntry(test.stem, test_image.rgb, ref_image.rgb, results)
         entry.metadata = {"test": str(test), "reference": str(ref)}

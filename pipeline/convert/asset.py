@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.materials.parameters import FeatherParameters
+from pavonine.pipeline.convert.mesh import MeshData
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.feather_mesh import MeshData
-from pavonine.pipeline.map_io import DataMap, write_map
+from pavonine.pipeline.maps.io import DataMap, write_map
 
 LODS = ("high", "medium", "low")
 METERS_PER_UNIT = 0.01  # centimetres
@@ -214,7 +214,7 @@ def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
 
     The asset holds exactly the values the geometry was built from, so every reader (renderer,
     validator, DCC) sees one channel whatever the source file had: 16-bit PNG, or half-float
-    EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.map_io.write_map`).
+    EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.maps.io.write_map`).
     """
     out = {}
     for key, data in maps.items():

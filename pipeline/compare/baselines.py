@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from pavonine.pipeline.compare import (
+from pavonine.pipeline.compare.methods import (
     CompareOptions,
     ComparisonResult,
     LoadedImage,
@@ -30,7 +30,7 @@ from pavonine.pipeline.compare import (
 )
 from pavonine.pipeline.errors import InputError
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+REPO_ROOT = Path(__file__).resolve().parents[2]
 SCENES_DIR = REPO_ROOT / "assets" / "scenes"
 BASELINES_DIR = REPO_ROOT / "assets" / "baselines"
 

@@ -22,9 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.materials.parameters import ParameterError
-from pavonine.pipeline.asset import LODS, check_outdir, staging_folder, write_asset
-from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.feather_mesh import (
+from pavonine.pipeline.convert.asset import LODS, check_outdir, staging_folder, write_asset
+from pavonine.pipeline.convert.mesh import (
     RACHIS_SHARE,
     FeatherFrame,
     MeshData,
@@ -32,9 +31,10 @@ from pavonine.pipeline.feather_mesh import (
     build_base,
     build_lod,
 )
-from pavonine.pipeline.map_io import DataMap, read_data_map
-from pavonine.pipeline.maps import MAP_NAMES
-from pavonine.pipeline.recipe import Recipe, parameter_key, parse_recipe
+from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
+from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.maps.io import DataMap, read_data_map
+from pavonine.pipeline.maps.paint import MAP_NAMES
 
 STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "write")
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.baselines import (
+from pavonine.pipeline.cli.baseline import store_options
+from pavonine.pipeline.compare.baselines import (
     BASELINES_DIR,
     SceneCheck,
     baseline_for,
@@ -16,8 +17,7 @@ from pavonine.pipeline.baselines import (
     scene_name,
     shipped_scenes,
 )
-from pavonine.pipeline.cmd_baseline import store_options
-from pavonine.pipeline.compare import METHODS
+from pavonine.pipeline.compare.methods import METHODS
 from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
 
 
@@ -52,8 +52,8 @@ def run_checks(
 
 
 def report_entries(checks: list[SceneCheck]):
-    """Report rows for :func:`pavonine.pipeline.report.write_report`."""
-    from pavonine.pipeline.report import SceneEntry
+    """Report rows for :func:`pavonine.pipeline.compare.report.write_report`."""
+    from pavonine.pipeline.compare.report import SceneEntry
 
     entries = []
     for check in checks:
@@ -126,7 +126,7 @@ def check_renders(
     methods = METHODS if method == "all" else (method,)
     checks = run_checks(stages, baselines_dir=baselines_dir, methods=methods, seed=seed)
     if report is not None:
-        from pavonine.pipeline.report import write_report
+        from pavonine.pipeline.compare.report import write_report
 
         page = write_report(report, report_entries(checks))
         click.echo(f"report: {page}")

@@ -5,7 +5,7 @@ Spaces
 ------
 *Feather space* ``(u, v) ∈ [0, 1]²`` is the space the maps are read in: ``u`` left → right
 across the image, ``v`` from the image's bottom row (the feather's base) to its top row (the
-apex); see :func:`pavonine.pipeline.map_io.sample_bilinear`. *Object space* is centimetres,
+apex); see :func:`pavonine.pipeline.maps.io.sample_bilinear`. *Object space* is centimetres,
 Y up along the feather, X across it, the iridescent front facing +Z:
 
     P(u, v) = ((u - ½) W,  v L,  -bend · max(v, 0)² - cup · (2u - 1)²)
@@ -35,7 +35,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from pavonine.pipeline.map_io import sample_bilinear
+from pavonine.pipeline.maps.io import sample_bilinear
 
 #: Smallest fraction of an edge at which the silhouette may cut it (keeps triangles fat).
 _CUT_CLAMP = 0.15

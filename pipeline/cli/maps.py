@@ -47,7 +47,7 @@ def maps(kind: str, outdir: Path, size: int, seed: int, fmt: str, contact_sheet:
     """
     from rich.progress import Progress
 
-    from pavonine.pipeline.maps import KINDS, generate_maps, write_contact_sheet, write_maps
+    from pavonine.pipeline.maps.paint import KINDS, generate_maps, write_contact_sheet, write_maps
 
     if outdir.exists() and not outdir.is_dir():
         raise InputError(str(outdir), "exists and is not a directory")

@@ -1,0 +1,1 @@
+"""Render comparisons: noise-aware and perceptual methods, approved baselines, HTML reports."""
