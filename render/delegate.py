@@ -16,7 +16,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.pipeline.errors import InputError
-from pavonine.render import instancing, lights, materials, mesh
+from pavonine.render import facing, instancing, lights, materials, mesh, shapes, subdivision
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.xform import TransformCache
 
@@ -104,9 +104,9 @@ class StageDelegate:
             if prim.IsInstance():
                 instancing.native_instance(prim, self.xforms.world(prim), self.table, self._subtree)
                 it.PruneChildren()
-            elif kind == "Mesh":
-                shapes, boxes = self._mesh(prim, self.xforms.world(prim), world=True)
-                for i, shape in enumerate(shapes):
+            elif kind == "Mesh" or shapes.is_implicit(prim):
+                built, boxes = self._gprim(prim, self.xforms.world(prim), world=True)
+                for i, shape in enumerate(built):
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
             elif kind == "PointInstancer":
@@ -163,36 +163,41 @@ class StageDelegate:
             return False
         return imageable.ComputePurpose() not in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
 
-    def _mesh(
+    def _surface(self, prim: Usd.Prim) -> mesh.Surface | None:
+        """The gprim as polygons: a mesh as authored (subdivided), or an implicit prim tessellated."""
+        if prim.GetTypeName() == "Mesh":
+            surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag)
+            if surface is None:
+                return None
+            return subdivision.refine_surface(surface, self.time, self.diag)
+        return shapes.implicit_surface(prim, self.time, self.diag)
+
+    def _gprim(
         self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool
     ) -> tuple[list, list[tuple[np.ndarray, np.ndarray]]]:
         """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space."""
-        usd_mesh = UsdGeom.Mesh(prim)
-        topology = mesh.read_topology(usd_mesh, self.time, self.diag)
-        if topology is None:
+        surface = self._surface(prim)
+        if surface is None:
             return [], []
-        double_sided = bool(usd_mesh.GetDoubleSidedAttr().Get(self.time))
         built = []
         for index, (material, mask) in enumerate(
-            mesh.material_groups(usd_mesh, topology, self.time, self.diag)
+            mesh.material_groups(surface, self.time, self.diag)
         ):
             spec = self._material(material, prim)
             triangles = mesh.build_triangle_mesh(
-                usd_mesh,
-                topology,
+                surface,
                 mask,
                 matrix_usd,
                 spec.uv_primvar,
                 spec.attributes,
-                self.time,
                 self.diag,
                 f"{prim.GetPath()}#{index}",
             )
-            built.append((triangles, self._bsdf(spec, double_sided)))
+            built.append((triangles, self._bsdf(spec, surface.double_sided)))
         emitter = self._mesh_light(prim, sum(t.area() for t, _ in built), world)
-        shapes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
+        meshes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
         self.scene.mesh_count += len(built)
-        return shapes, [t.bounds() for t, _ in built]
+        return meshes, [t.bounds() for t, _ in built]
 
     def _mesh_light(self, prim: Usd.Prim, world_area: float, world: bool) -> dict | None:
         """A ``MeshLightAPI`` mesh's Mitsuba ``area`` emitter (UsdLux radiance, ``normalize``)."""
@@ -219,7 +224,7 @@ class StageDelegate:
 
     def _subtree(self, root: Usd.Prim, relative_to: Usd.Prim) -> tuple[list, tuple | None]:
         """Meshes under ``root`` (instance proxies included) relative to ``relative_to``."""
-        shapes: list = []
+        meshes: list = []
         boxes: list = []
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies()))
         for prim in it:
@@ -227,12 +232,12 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
-            if kind == "Mesh":
+            if kind == "Mesh" or shapes.is_implicit(prim):
                 matrix = (
                     np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
                 )
-                prim_shapes, prim_boxes = self._mesh(prim, matrix, world=False)
-                shapes.extend(prim_shapes)
+                prim_shapes, prim_boxes = self._gprim(prim, matrix, world=False)
+                meshes.extend(prim_shapes)
                 boxes.extend(prim_boxes)
             elif kind == "PointInstancer":
                 self.diag.warn(
@@ -252,7 +257,7 @@ class StageDelegate:
             if boxes
             else None
         )
-        return shapes, bounds
+        return meshes, bounds
 
     def _material(
         self, material: UsdShade.Material | None, prim: Usd.Prim
@@ -267,12 +272,17 @@ class StageDelegate:
     def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool):
         import mitsuba as mi
 
-        wrap = double_sided and not spec.two_sided
+        # doubleSided: both sides shade alike; singleSided: back faces culled (render/facing.py)
+        wrap = "both" if double_sided else "front"
+        if spec.two_sided:
+            wrap = "self"  # the BSDF already shades both sides as it should (the feather)
         key = (spec.key, wrap)
         if key not in self._bsdfs:
             bsdf = spec.bsdf
-            if wrap:
+            if wrap == "both":
                 bsdf = {"type": "twosided", "bsdf": bsdf}
+            elif wrap == "front":
+                bsdf = facing.cull_back_faces(bsdf)
             try:
                 self._bsdfs[key] = mi.load_dict(bsdf)
             except Exception as exc:
