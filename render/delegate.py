@@ -16,7 +16,17 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.pipeline.errors import InputError
-from pavonine.render import facing, instancing, lights, materials, mesh, shapes, subdivision
+from pavonine.render import (
+    curves,
+    facing,
+    instancing,
+    lights,
+    materials,
+    mesh,
+    shapes,
+    skel,
+    subdivision,
+)
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.xform import TransformCache
 
@@ -31,6 +41,9 @@ STRUCTURAL = {
     "RenderPass",
     "Shader",
     "Backdrop",
+    "Skeleton",  # UsdSkel: deforms the prims bound to it (render/skel.py)
+    "SkelAnimation",
+    "BlendShape",
 }
 # prims whose children are not geometry either (shading networks, render settings)
 PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
@@ -89,10 +102,12 @@ class StageDelegate:
         self._bsdfs: dict[tuple[str, bool], object] = {}
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
+        self.skinning = skel.Skinning()
 
     def sync(self) -> SyncedScene:
         """Walk the stage and translate every renderable prim."""
         light_prims: list[Usd.Prim] = []
+        self.skinning = skel.skin_stage(self.stage, self.time, self.xforms, self.diag)
         it = iter(Usd.PrimRange(self.stage.GetPseudoRoot()))
         for prim in it:
             if prim.IsPseudoRoot():
@@ -105,7 +120,14 @@ class StageDelegate:
                 instancing.native_instance(prim, self.xforms.world(prim), self.table, self._subtree)
                 it.PruneChildren()
             elif kind == "Mesh" or shapes.is_implicit(prim):
-                built, boxes = self._gprim(prim, self.xforms.world(prim), world=True)
+                world = self.skinning.transforms.get(str(prim.GetPath()))
+                world = self.xforms.world(prim) if world is None else world
+                built, boxes = self._gprim(prim, world, world=True)
+                for i, shape in enumerate(built):
+                    self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
+                self._bounds.extend(boxes)
+            elif kind == "BasisCurves":
+                built, boxes = self._curves(prim, self.xforms.world(prim))
                 for i, shape in enumerate(built):
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
@@ -169,6 +191,9 @@ class StageDelegate:
             surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag)
             if surface is None:
                 return None
+            skinned = self.skinning.points.get(str(prim.GetPath()))
+            if skinned is not None:
+                surface = mesh.with_points(surface, skinned, self.diag)
             return subdivision.refine_surface(surface, self.time, self.diag)
         return shapes.implicit_surface(prim, self.time, self.diag)
 
@@ -198,6 +223,21 @@ class StageDelegate:
         meshes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
         self.scene.mesh_count += len(built)
         return meshes, [t.bounds() for t, _ in built]
+
+    def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
+        """A ``BasisCurves`` prim as one Mitsuba curve shape with its bound material."""
+        built = curves.curve_control_points(prim, matrix_usd, self.time, self.diag)
+        if built is None:
+            return [], []
+        kind, control_points = built
+        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
+        spec = self._material(material if material else None, prim)
+        try:
+            shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True))
+        except Exception as exc:
+            self.diag.warn(str(prim.GetPath()), f"Mitsuba rejected the curves ({first_line(exc)})")
+            return [], []
+        return [shape], [curves.bounds_of(control_points)]
 
     def _mesh_light(self, prim: Usd.Prim, world_area: float, world: bool) -> dict | None:
         """A ``MeshLightAPI`` mesh's Mitsuba ``area`` emitter (UsdLux radiance, ``normalize``)."""
@@ -237,6 +277,13 @@ class StageDelegate:
                     np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
                 )
                 prim_shapes, prim_boxes = self._gprim(prim, matrix, world=False)
+                meshes.extend(prim_shapes)
+                boxes.extend(prim_boxes)
+            elif kind == "BasisCurves":
+                matrix = (
+                    np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
+                )
+                prim_shapes, prim_boxes = self._curves(prim, matrix)
                 meshes.extend(prim_shapes)
                 boxes.extend(prim_boxes)
             elif kind == "PointInstancer":

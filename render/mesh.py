@@ -189,6 +189,19 @@ def read_mesh(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> Surf
     )
 
 
+def with_points(surface: Surface, points: np.ndarray, diag: Diagnostics) -> Surface:
+    """The surface with its points moved (skinned); authored normals, now stale, are recomputed."""
+    from dataclasses import replace
+
+    topology = surface.topology
+    if len(points) != len(topology.points):
+        diag.warn(surface.where, "skinned points do not match the mesh's points; rest pose")
+        return surface
+    moved = replace(topology, points=np.asarray(points, dtype=np.float64))
+    normals = None if surface.normals is None else smooth_normals(moved)
+    return replace(surface, topology=moved, normals=normals)
+
+
 def double_sided(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> bool:
     """The gprim's ``doubleSided`` (its schema fallback when unauthored; a warning if not a bool)."""
     attr = UsdGeom.Gprim(prim).GetDoubleSidedAttr()

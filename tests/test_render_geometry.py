@@ -373,3 +373,89 @@ def test_wrongly_typed_geometry_attributes_warn_by_prim_and_attribute():
     ]
     for line in expected:
         assert any(m.startswith(line) for m in diag.messages), (line, diag.messages)
+
+
+# -- UsdSkel --------------------------------------------------------------------------------------
+
+
+def skinned_bar(stage):
+    """A two-joint skeleton bending its second joint 90° about Z between time 0 and 10, and a bar
+    of points bound rigidly: the first two points to joint 0, the tip points to joint 1."""
+    from pxr import UsdSkel, Vt
+
+    root = UsdSkel.Root.Define(stage, "/Rig")
+    skeleton = UsdSkel.Skeleton.Define(stage, "/Rig/Skel")
+    joints = ["a", "a/b"]
+    skeleton.CreateJointsAttr(joints)
+    rest = [Gf.Matrix4d(1), Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(1, 0, 0))]
+    skeleton.CreateRestTransformsAttr(rest)
+    skeleton.CreateBindTransformsAttr(
+        [Gf.Matrix4d(1), Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(1, 0, 0))]
+    )
+    anim = UsdSkel.Animation.Define(stage, "/Rig/Skel/Anim")
+    anim.CreateJointsAttr(joints)
+    anim.CreateTranslationsAttr(Vt.Vec3fArray([(0, 0, 0), (1, 0, 0)]))
+    anim.CreateScalesAttr(Vt.Vec3hArray([(1, 1, 1), (1, 1, 1)]))
+    rotations = anim.CreateRotationsAttr()
+    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(1)]), 0)
+    turn = Gf.Rotation(Gf.Vec3d(0, 0, 1), 90).GetQuat()
+    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(turn)]), 10)
+    UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets(
+        [anim.GetPath()]
+    )
+    mesh = UsdGeom.Mesh.Define(stage, "/Rig/Bar")
+    mesh.CreatePointsAttr(
+        [(0, -0.1, 0), (1, -0.1, 0), (2, -0.1, 0), (2, 0.1, 0), (1, 0.1, 0), (0, 0.1, 0)]
+    )
+    mesh.CreateFaceVertexCountsAttr([4, 4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 5, 1, 2, 3, 4])
+    mesh.CreateSubdivisionSchemeAttr("none")
+    binding = UsdSkel.BindingAPI.Apply(mesh.GetPrim())
+    binding.CreateSkeletonRel().SetTargets([skeleton.GetPath()])
+    binding.CreateJointIndicesPrimvar(False, 1).Set([0, 0, 1, 1, 0, 0])
+    binding.CreateJointWeightsPrimvar(False, 1).Set([1.0] * 6)
+    UsdSkel.BindingAPI.Apply(root.GetPrim())
+    return mesh
+
+
+def test_skinned_points_follow_the_animation_at_the_render_time():
+    stage = Usd.Stage.CreateInMemory()
+    skinned_bar(stage)
+    bounds = {}
+    for t in (0.0, 10.0):
+        scene, diag = quiet(lambda d, t=t: StageDelegate(stage, Usd.TimeCode(t), d).sync())
+        assert diag.messages == [] and scene.mesh_count == 1
+        bounds[t] = scene.bounds
+    assert bounds[0.0][1] == pytest.approx([2, 0.1, 0], abs=1e-5)  # rest pose: the bar along x
+    # joint b at x = 1 turned 90° about z: the tip (x = 2) swings to y = 1 (± the bar's half width)
+    assert bounds[10.0][1][1] == pytest.approx(1.0, abs=1e-5)
+    assert bounds[10.0][1][0] == pytest.approx(1.1, abs=1e-5)
+
+
+# -- BasisCurves -----------------------------------------------------------------------------------
+
+
+def test_curve_bases_convert_exactly_to_bsplines():
+    from pavonine.render import curves
+
+    rng = np.random.default_rng(1)
+    bezier = rng.normal(size=(4, 4))
+    (bspline,) = curves._to_bspline(bezier, "cubic", "bezier", "nonperiodic")
+
+    # B-spline segment evaluated at t = 0, 1/2, 1 equals the Bézier curve there
+    def basis(t):
+        return (
+            np.array(
+                [(1 - t) ** 3, 3 * t**3 - 6 * t**2 + 4, -3 * t**3 + 3 * t**2 + 3 * t + 1, t**3]
+            )
+            / 6
+        )
+
+    bern = lambda t: np.array([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3])  # noqa: E731
+    for t in (0.0, 0.5, 1.0):
+        assert basis(t) @ bspline == pytest.approx(bern(t) @ bezier)
+    pinned = curves._to_bspline(bezier, "cubic", "bspline", "pinned")[0]
+    assert basis(0.0) @ pinned[:4] == pytest.approx(bezier[0])  # starts on its first point
+    assert basis(1.0) @ pinned[-4:] == pytest.approx(bezier[-1])
+    periodic = curves._to_bspline(bezier, "cubic", "bspline", "periodic")[0]
+    assert len(periodic) == 7 and np.array_equal(periodic[4:], bezier[:3])

@@ -136,3 +136,36 @@ def test_primvar_interpolations_survive_a_render(tmp_path):
     ).Set([(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)])
     image, warnings_ = render(stage)
     assert warnings_ == [] and coverage(image) == pytest.approx(4 / FRAME**2, rel=0.05)
+
+
+def test_curves_render_as_tubes_of_their_width(tmp_path):
+    stage = lit_stage(tmp_path / "curves.usda")
+    curve = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    curve.CreateTypeAttr("cubic")
+    curve.CreateBasisAttr("bspline")
+    curve.CreateWrapAttr("pinned")
+    curve.CreateCurveVertexCountsAttr([4])
+    curve.CreatePointsAttr([(-1.2, 0, 0), (-0.4, 0, 0), (0.4, 0, 0), (1.2, 0, 0)])
+    curve.CreateWidthsAttr([0.3])
+    curve.SetWidthsInterpolation("constant")
+    image, warnings_ = render(stage)
+    assert warnings_ == []
+    rows, cols = np.nonzero(image > 0.02)
+    # pinned: from end point to end point (Mitsuba's tubes end flat)
+    assert (np.ptp(cols) + 1) * FRAME / SIZE == pytest.approx(2.4, abs=2 * FRAME / SIZE)
+    assert (np.ptp(rows) + 1) * FRAME / SIZE == pytest.approx(0.3, abs=2 * FRAME / SIZE)
+
+
+def test_skinned_mesh_renders_in_its_animated_pose(tmp_path):
+    from test_render_geometry import skinned_bar
+
+    stage = lit_stage(tmp_path / "skinned.usda")
+    skinned_bar(stage)
+    stage.SetStartTimeCode(10)
+    stage.SetEndTimeCode(10)
+    image, warnings_ = render(stage)
+    assert warnings_ == []
+    # at time 10 the tip points up: lit pixels above the bar's row, right of the joint at x = 1
+    column = SIZE // 2 + round(1.0 * SIZE / FRAME)
+    rows = np.nonzero(image[:, column] > 0.02)[0]
+    assert rows.size and (SIZE // 2 - rows.min()) * FRAME / SIZE == pytest.approx(1.0, abs=0.15)
