@@ -14,8 +14,8 @@ stage and the run goes on. Per stage the worker measures, and the parent checks:
   hits a shape, from Mitsuba's ``aov`` depth), none where it has none;
 * ``lit``: where geometry is seen, it is not black (the stage's lights, or the default sun and sky,
   reach it);
-* ``texture``: where a bound material names an image file, the render differs from the same stage
-  with those files blanked (so the texture really reaches the image);
+* ``texture``: where a shader names an image file that exists and OpenImageIO reads, the render
+  differs from the same stage with those files blanked (so the texture really reaches the image);
 * ``silhouette``: where the suite ships a ``usdrecord`` screenshot (whose framing camera is known:
   ``UsdAppUtilsFrameRecorder``'s 50 mm camera fitted to the stage bounds), the intersection over
   union of our coverage and the screenshot's alpha, with one pixel of tolerance, is at least 0.85;
@@ -121,7 +121,7 @@ def describe(stage) -> dict:
         elif prim.IsA(UsdShade.Shader) and not prim.IsInstanceProxy():
             for shader_input in UsdShade.Shader(prim).GetInputs():
                 value = shader_input.Get(time_code)
-                if isinstance(value, Sdf.AssetPath) and value.path:
+                if isinstance(value, Sdf.AssetPath) and readable_image(value.resolvedPath):
                     texture_inputs.append(shader_input.GetAttr().GetPath())
     bound = [] if box.IsEmpty() else [list(box.GetMin()), list(box.GetMax())]
     return {
@@ -133,6 +133,25 @@ def describe(stage) -> dict:
         "texture_inputs": [str(p) for p in texture_inputs],
         "up_axis": str(UsdGeom.GetStageUpAxis(stage)),
     }
+
+
+def readable_image(resolved: str) -> bool:
+    """True when a resolved asset path (file or package member) is an image OpenImageIO reads:
+    a texture the stage really provides, as opposed to a deliberately missing or corrupt one."""
+    import OpenImageIO as oiio
+
+    from pavonine.asset_io import local_file
+
+    if not resolved:
+        return False
+    try:
+        image = oiio.ImageInput.open(local_file(resolved))
+    except Exception:
+        return False
+    if image is None:
+        return False
+    image.close()
+    return True
 
 
 def usdrecord_camera_matrix(bounds: list, up_axis: str) -> np.ndarray:
@@ -150,10 +169,10 @@ def usdrecord_camera_matrix(bounds: list, up_axis: str) -> np.ndarray:
     distance += dim[2] / 2 if up_axis == "Y" else dim[1] / 2
     matrix = np.eye(4)
     if up_axis == "Y":
-        matrix[3, :3] = [*centre, 0.0, 0.0, distance]
+        matrix[3, :3] = centre + np.array([0.0, 0.0, distance])
     else:
         matrix[:3, :3] = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]  # 90° about X (row-vector layout)
-        matrix[3, :3] = [*centre, 0.0, -distance, 0.0]
+        matrix[3, :3] = centre + np.array([0.0, -distance, 0.0])
     return matrix
 
 
@@ -235,6 +254,7 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     """Render one stage (and its texture-blanked twin) and measure; returns the metrics dict."""
     from pxr import Usd
 
+    from pavonine.pipeline.errors import InputError
     from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import Diagnostics, StageWarning
     from pavonine.render.imageio import write_png
@@ -243,7 +263,14 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     warnings.simplefilter("ignore", StageWarning)
     out.mkdir(parents=True, exist_ok=True)
     result: dict = {"stage": str(stage_path)}
-    stage = Usd.Stage.Open(str(stage_path))
+    try:
+        stage = Usd.Stage.Open(str(stage_path))
+    except Exception:  # usd-core refuses the layer: the renderer must say so in one line
+        try:
+            render_stage(stage_path, spp=1, resolution=(8, 8), progress=False)
+        except InputError as exc:
+            return {**result, "status": "error", "detail": str(exc)}
+        raise
     facts = describe(stage)
     result.update(facts)
     settings = read_render_settings(stage, Diagnostics())
@@ -270,7 +297,11 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     np.save(out / "coverage.npy", covered)
     result["coverage"] = float((covered > 0).mean())
     mask = covered > 0.5
-    result["lit_luminance"] = float(np.percentile(luminance[mask], 90)) if mask.any() else 0.0
+    seen = covered > 0
+    # brightness of what is seen, per unit coverage (objects smaller than a pixel count too)
+    result["lit_luminance"] = (
+        float(np.percentile(luminance[seen] / covered[seen], 90)) if seen.any() else 0.0
+    )
     if facts["texture_inputs"] and mask.any():
         blank, _ = write_wrapper(stage_path, stage, facts, out, blank_textures=True)
         plain = render_stage(blank, spp=spp, resolution=resolution, camera=camera, progress=False)
@@ -378,7 +409,8 @@ def run_one(stage: Path, out: Path, args) -> dict:
     report = out / "metrics.json"
     if proc.returncode == 0 and report.is_file() and "Traceback" not in proc.stderr:
         metrics = json.loads(report.read_text())
-        metrics.update(status="ok", wall=wall)
+        metrics.setdefault("status", "ok")
+        metrics["wall"] = wall
         return metrics
     tail = [line for line in proc.stderr.splitlines() if line.strip()][-1:] or [""]
     status = "traceback" if "Traceback" in proc.stderr else f"exit {proc.returncode}"

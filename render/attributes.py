@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pxr import Usd, Vt
+from pxr import Sdf, Usd, Vt
 
 from pavonine.render.diagnostics import Diagnostics
 
@@ -34,10 +34,11 @@ def _schema_type(attr: Usd.Attribute) -> str:
 
 
 def vec3_array(attr: Usd.Attribute, time: Usd.TimeCode, diag: Diagnostics) -> np.ndarray | None:
-    """An array of 3-vectors (float, double or half) as (N, 3) float64; ``None`` if unauthored.
+    """An array of 3-vectors of the schema's value type as (N, 3) float64; ``None`` if unauthored.
 
-    Another type (``int[]``, a single ``point3f``) warns and gives ``None``; the same values
-    under another role (``color3f[]`` for ``point3f[]``) or precision warn and are read.
+    As USD's typed reads: the same C++ value type under another role (``color3f[]`` or ``float3[]``
+    for ``point3f[]``) is read, with a warning; another type (``double3[]``, ``int[]``, a single
+    ``point3f``) warns and gives ``None``.
     """
     if not attr:
         return None
@@ -46,7 +47,9 @@ def vec3_array(attr: Usd.Attribute, time: Usd.TimeCode, diag: Diagnostics) -> np
         return None
     where, name = str(attr.GetPrim().GetPath()), attr.GetName()
     authored, expected = authored_type(attr), _schema_type(attr)
-    if not isinstance(value, VEC3_ARRAYS):
+    authored_value = Sdf.ValueTypeNames.Find(authored)
+    same_value_type = not authored_value or authored_value.type == attr.GetTypeName().type
+    if not isinstance(value, VEC3_ARRAYS) or not same_value_type:
         diag.warn(where, f"{name} has type {authored}, expected {expected}; ignored")
         return None
     if authored != expected:

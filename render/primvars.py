@@ -82,7 +82,7 @@ def as_matrix(values: object) -> np.ndarray | None:
     ``None`` for anything else (strings, tokens, assets, booleans, matrices)."""
     if isinstance(values, NUMERIC_ARRAYS):
         array = np.asarray(values, dtype=np.float64)
-        return array.reshape(len(array), -1)
+        return array.reshape(len(array), -1) if len(array) else array.reshape(0, 1)
     if isinstance(values, (int, float)) and not isinstance(values, bool):
         return np.array([[float(values)]])
     if type(values).__name__.startswith("Vec") and type(values).__module__ == "pxr.Gf":

@@ -350,6 +350,8 @@ def test_wrongly_typed_geometry_attributes_warn_by_prim_and_attribute():
         f'def Mesh "ColourPoints"\n{{\n{topology}color3f[] {cube[9:]}}}\n'
         f'def Mesh "IntPoints"\n{{\n{topology}int[] points = [1, 2, 3]\n}}\n'
         f'def Mesh "IntNormals"\n{{\n{topology}{cube}int normals = 7\n}}\n'
+        f'def Mesh "DoublePoints"\n{{\n{topology}double3[] {cube[9:]}}}\n'
+        f'def Mesh "EmptyPrimvar"\n{{\n{topology}{cube}float2[] primvars:st = []\n}}\n'
     )
     bad_counts = cube_mesh(stage, "/BadCounts", scheme="none")
     bad_counts.GetFaceVertexCountsAttr().Set([4, 4, 4])
@@ -362,11 +364,13 @@ def test_wrongly_typed_geometry_attributes_warn_by_prim_and_attribute():
     st.Set([(0, 0)])
     st.SetIndices([0, 5] * 12)
     scene, diag = quiet(lambda d: StageDelegate(stage, Usd.TimeCode.Default(), d).sync())
-    assert scene.mesh_count == 4  # ColourPoints, IntNormals, BadExtent, BadIndices
+    # ColourPoints, IntNormals, EmptyPrimvar, BadExtent, BadIndices
+    assert scene.mesh_count == 5
     expected = [
         "/ColourPoints: points is authored as color3f[], not point3f[]; read as point3f[]",
         "/IntPoints: points has type int[], expected point3f[]; ignored",
         "/IntNormals: normals has type int, expected normal3f[]; ignored",
+        "/DoublePoints: points has type double3[], expected point3f[]; ignored",
         "/BadCounts: faceVertexCounts sum to 12 but there are 24 faceVertexIndices",
         "/BadExtent: extent [1.0, 1.0, 1.0]..[0.0, 0.0, 0.0] is inverted",
         "/BadIndices: primvars:st: 12 indices out of range (0..0); ignored",
