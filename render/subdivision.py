@@ -298,16 +298,45 @@ def _incidence(rows: np.ndarray, cols: np.ndarray, shape, values=None) -> sparse
 # -- Catmull-Clark -------------------------------------------------------------------------------
 
 
+@dataclass
+class Level:
+    """The incidence structure both schemes start a level from."""
+
+    face: np.ndarray  # (C,) face of each corner
+    nxt: np.ndarray  # (C,) next corner in its face
+    prv: np.ndarray  # (C,) previous corner in its face
+    edges: np.ndarray  # (E, 2) unique edges (a < b)
+    edge_of_corner: np.ndarray  # (C,) edge from each corner to the next
+    edge_s: np.ndarray  # (E,) sharpness
+    ends: sparse.csr_matrix  # (E, n): a + b of each edge
+    edge_faces: sparse.csr_matrix  # (E, F) incidence
+    n_faces: np.ndarray  # (E,) faces per edge
+
+
+def _level(cage: Cage) -> Level:
+    face, nxt, prv, edges, edge_of_corner = _edges(cage.counts, cage.indices)
+    n_edges = len(edges)
+    edge_faces = _incidence(edge_of_corner, face, (n_edges, len(cage.counts)))
+    return Level(
+        face,
+        nxt,
+        prv,
+        edges,
+        edge_of_corner,
+        _sharpness_arrays(cage, edges),
+        _incidence(np.repeat(np.arange(n_edges), 2), edges.ravel(), (n_edges, cage.n_points)),
+        edge_faces,
+        np.asarray(edge_faces.sum(axis=1)).ravel(),
+    )
+
+
 def _catmull_clark(cage: Cage) -> Step:
     counts, indices, n = cage.counts, cage.indices, cage.n_points
     F, C = len(counts), len(indices)
-    face, nxt, prv, edges, edge_of_corner = _edges(counts, indices)
-    E = len(edges)
-    edge_s = _sharpness_arrays(cage, edges)
+    lv = _level(cage)
+    face, nxt, prv, edges, edge_of_corner = lv.face, lv.nxt, lv.prv, lv.edges, lv.edge_of_corner
+    E, edge_s, ends, edge_faces, n_faces = len(edges), lv.edge_s, lv.ends, lv.edge_faces, lv.n_faces
     face_pts = _incidence(face, indices, (F, n), 1.0 / counts[face])  # centroids
-    ends = _incidence(np.repeat(np.arange(E), 2), edges.ravel(), (E, n))  # a + b
-    edge_faces = _incidence(edge_of_corner, face, (E, F))
-    n_faces = np.asarray(edge_faces.sum(axis=1)).ravel()
     smooth_edge = 0.25 * ends + 0.25 * (edge_faces @ face_pts)
     w = np.where(n_faces == 2, np.minimum(edge_s, 1.0), 1.0)
     edge_pts = sparse.diags(1.0 - w) @ smooth_edge + sparse.diags(w) @ (0.5 * ends)
@@ -366,13 +395,10 @@ def _catmull_clark(cage: Cage) -> Step:
 def _loop(cage: Cage) -> Step:
     counts, indices, n = cage.counts, cage.indices, cage.n_points
     F, C = len(counts), len(indices)
-    face, _nxt, _prv, edges, edge_of_corner = _edges(counts, indices)
-    E = len(edges)
-    edge_s = _sharpness_arrays(cage, edges)
+    lv = _level(cage)
+    face, edges, edge_of_corner = lv.face, lv.edges, lv.edge_of_corner
+    E, edge_s, ends, edge_faces, n_faces = len(edges), lv.edge_s, lv.ends, lv.edge_faces, lv.n_faces
     tri_sum = _incidence(face, indices, (F, n))
-    ends = _incidence(np.repeat(np.arange(E), 2), edges.ravel(), (E, n))
-    edge_faces = _incidence(edge_of_corner, face, (E, F))
-    n_faces = np.asarray(edge_faces.sum(axis=1)).ravel()
     smooth_edge = 0.125 * ends + 0.125 * (edge_faces @ tri_sum)  # 3/8 (a+b) + 1/8 (c+d)
     w = np.where(n_faces == 2, np.minimum(edge_s, 1.0), 1.0)
     edge_pts = sparse.diags(1.0 - w) @ smooth_edge + sparse.diags(w) @ (0.5 * ends)
