@@ -217,6 +217,7 @@ class StageDelegate:
                 spec.attributes,
                 self.diag,
                 f"{prim.GetPath()}#{index}",
+                all_primvars=not spec.is_feather,  # the feather BSDF reads its own attributes only
             )
             built.append((triangles, self._bsdf(spec, surface.double_sided)))
         emitter = self._mesh_light(prim, sum(t.area() for t, _ in built), world)

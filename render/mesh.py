@@ -286,12 +286,15 @@ def build_triangle_mesh(
     feather_attributes: dict[str, str],
     diag: Diagnostics,
     name: str,
+    all_primvars: bool = True,
 ) -> TriangleMesh:
     """One material's triangles with positions/normals/uvs/attributes transformed by ``matrix_usd``.
 
     Every non-constant primvar becomes the attribute :func:`mesh_attribute_name` names, with its
     values as authored (object space); ``feather_attributes`` (primvar → Mitsuba name) are the
-    feather BSDF's direction attributes, transformed with the mesh and renormalised.
+    feather BSDF's direction attributes, transformed with the mesh and renormalised. With
+    ``all_primvars`` false (a material that reads no primvar attribute: the feather BSDF) only
+    those are built, so that the mesh keeps its shared vertices.
     """
     topology, where = surface.topology, surface.where
     normals = surface.normals
@@ -301,11 +304,11 @@ def build_triangle_mesh(
     if uv is None and uv_primvar != "st":
         diag.warn(where, f"primvar {uv_primvar} not found; using st for texture coordinates")
         uv = surface.primvars.get("st")
+    primvars = surface.primvars if all_primvars else {}
     per_vertex = {
-        n: pv
-        for n, pv in surface.primvars.items()
-        if pv.interpolation not in ("constant", "uniform")
+        n: pv for n, pv in primvars.items() if pv.interpolation not in ("constant", "uniform")
     }
+    per_vertex.update({n: surface.primvars[n] for n in feather_attributes if n in surface.primvars})
     corner_data = [normals, uv, *per_vertex.values()]
     welded = all(pv is None or pv.interpolation in (*PER_VERTEX, "constant") for pv in corner_data)
     triangles = topology.triangles[triangle_mask]
@@ -358,7 +361,7 @@ def build_triangle_mesh(
         if t is not None and t.shape[1] >= 2:
             # USD's st has v up; Mitsuba's bitmap rows start at the top (as its OBJ/PLY loaders do).
             out.texcoords = np.stack([t[:, 0], 1.0 - t[:, 1]], axis=1).astype(np.float32)
-    for primvar_name, primvar in surface.primvars.items():
+    for primvar_name, primvar in primvars.items():
         attribute = mesh_attribute_name(primvar_name, primvar.interpolation)
         if attribute is None:
             continue
