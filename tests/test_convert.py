@@ -14,11 +14,11 @@ import pytest
 from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
+from pavonine.pipeline.convert.atlas import st_overlap_fraction
 from pavonine.pipeline.convert.mesh import (
     FeatherFrame,
     edge_report,
     prefilter,
-    st_overlap_fraction,
     triangle_areas,
 )
 from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map

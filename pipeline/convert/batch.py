@@ -130,6 +130,7 @@ def build_meshes(
                 opts.alpha_threshold,
                 base_triangles_for(opts.base_triangles, opts.lod.high),
                 rachis_triangles=round(RACHIS_SHARE * opts.lod.low),
+                low_triangles=opts.lod.low,
             )
         except ValueError as exc:
             raise InputError(f"{recipe.maps['alpha']}: maps.alpha", str(exc)) from None
