@@ -209,12 +209,13 @@ class StageDelegate:
             mesh.material_groups(surface, self.time, self.diag)
         ):
             spec = self._material(material, prim)
+            uv_primvar, attributes = spec.primvars_for(prim)
             triangles = mesh.build_triangle_mesh(
                 surface,
                 mask,
                 matrix_usd,
-                spec.uv_primvar,
-                spec.attributes,
+                uv_primvar,
+                attributes,
                 self.diag,
                 f"{prim.GetPath()}#{index}",
                 all_primvars=not spec.is_feather,  # the feather BSDF reads its own attributes only
@@ -328,7 +329,7 @@ class StageDelegate:
         if key not in self._bsdfs:
             bsdf = spec.bsdf
             if wrap == "both":
-                bsdf = {"type": "twosided", "bsdf": bsdf}
+                bsdf = two_sided(bsdf)
             elif wrap == "front":
                 bsdf = facing.cull_back_faces(bsdf)
             try:
@@ -340,6 +341,14 @@ class StageDelegate:
                 )
                 self._bsdfs[key] = mi.load_dict(materials.default_material().bsdf)
         return self._bsdfs[key]
+
+
+def two_sided(bsdf: dict) -> dict:
+    """``bsdf`` shading both sides: Mitsuba's ``twosided`` refuses a ``mask`` (it transmits), so
+    a mask keeps its place outside and the BSDF inside it is made two-sided."""
+    if bsdf.get("type") == "mask":
+        return {**bsdf, "bsdf": two_sided(bsdf["bsdf"])}
+    return {"type": "twosided", "bsdf": bsdf}
 
 
 def usd_error_message(exc: object) -> str:

@@ -57,7 +57,7 @@ def validate(paths: tuple[str, ...], as_json: bool, warnings: bool) -> None:
     (the parser's message is printed on stderr).
     """
     import pavonine  # noqa: F401  (registers the schema plugin before USD builds its registries)
-    from pavonine.schemas.validation import validate_stage
+    from pavonine.schemas.findings import validate_stage
 
     findings = []
     unreadable = []
