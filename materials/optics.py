@@ -207,9 +207,12 @@ class SpectrumSummary:
     peak_value: float
 
     def as_json(self) -> dict:
+        """Stable keys: ``observe_deg``, ``peak_nm``, ``peak_reflectance`` (the peak of the plotted
+        reflectance factor πf), ``fwhm_nm`` (None if the band does not close), ``srgb``."""
         return {
             "observe_deg": self.observe_deg,
             "peak_nm": round(self.peak_nm, 2),
+            "peak_reflectance": round(self.peak_value, 4),
             "fwhm_nm": None if self.fwhm_nm is None else round(self.fwhm_nm, 2),
             "srgb": [round(c, 4) for c in self.srgb],
         }

@@ -235,21 +235,27 @@ class FeatherParameters:
         whose staggered rods would overlap (d < √3·a), the paper's own Table 1 values kept."""
         for i, cls in enumerate(self.classes):
             for axis in AXES:
-                for end, stack in zip(("black", "white"), getattr(cls, axis), strict=True):
-                    name = f"class[{i}].{axis}.{end}"
-                    cortex = cls.cortex[0 if end == "black" else 1]
-                    if self.interference == "physical":
-                        stack.check_geometry(name, self.lattice, cortex)
-                        continue
-                    if stack.interval * (1 + 1e-6) < math.sqrt(3.0) * stack.radius:
-                        warnings.warn(
-                            f"class {i} {axis} axis ({end} end): staggered rods overlap, "
-                            f"d = {stack.interval:.4g} um < sqrt(3)*a = "
-                            f"{math.sqrt(3.0) * stack.radius:.4g} um; kept as printed in the "
-                            "paper mode, an error in the physical mode",
-                            GeometryWarning,
-                            stacklevel=4,
-                        )
+                ends = zip(("black", "white"), getattr(cls, axis), cls.cortex, strict=True)
+                if self.interference == "physical":
+                    for end, stack, cortex in ends:
+                        stack.check_geometry(f"class[{i}].{axis}.{end}", self.lattice, cortex)
+                    continue
+                tight = [
+                    (end, stack)
+                    for end, stack, _ in ends
+                    if stack.interval * (1 + 1e-6) < math.sqrt(3.0) * stack.radius
+                ]
+                if tight:
+                    end, stack = tight[0]
+                    which = " and ".join(e for e, _ in tight)
+                    warnings.warn(
+                        f"class {i} {axis} axis ({which} end{'s' if len(tight) > 1 else ''}): "
+                        f"staggered rods overlap, d = {stack.interval:.4g} um < sqrt(3)*a = "
+                        f"{math.sqrt(3.0) * stack.radius:.4g} um; kept as printed in the paper "
+                        "mode, an error in the physical mode",
+                        GeometryWarning,
+                        stacklevel=4,
+                    )
 
     def stacks(self, ocellar_class: int, gradation: float) -> tuple[LayerStack, LayerStack]:
         """``(long, short)`` stacks for a class index and gradation value."""

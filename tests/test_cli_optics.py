@@ -31,7 +31,7 @@ def test_spectra_json_summary(runner, tmp_path):
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
     assert [s["observe_deg"] for s in summary] == [10.0, 40.0]
-    assert set(summary[0]) == {"observe_deg", "peak_nm", "fwhm_nm", "srgb"}
+    assert set(summary[0]) == {"observe_deg", "peak_nm", "peak_reflectance", "fwhm_nm", "srgb"}
     assert summary[0]["peak_nm"] > summary[1]["peak_nm"]
     assert 480 < summary[0]["peak_nm"] < 530
 

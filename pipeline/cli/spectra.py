@@ -6,6 +6,7 @@ import csv
 import json
 import math
 import sys
+import warnings
 from contextlib import ExitStack
 from pathlib import Path
 
@@ -28,7 +29,7 @@ def _angles(text: str) -> list[float]:
 
 def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, interference):
     """The material and class selected by the command-line options."""
-    from pavonine.materials.parameters import preset, uniform_parameters
+    from pavonine.materials.parameters import GeometryWarning, preset, uniform_parameters
 
     explicit = [v is not None for v in (interval, radius, layers)]
     if any(explicit):
@@ -50,7 +51,12 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
         label = preset_name
     if interference:
         params = params.with_(interference=interference)
-    params.validate()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", GeometryWarning)
+        params.validate()
+    for warning in caught:  # only the plotted class's own geometry concerns this plot
+        if f"class {ocellar_class or 0} " in str(warning.message):
+            click.echo(f"warning: {warning.message}", err=True)
     if ocellar_class is not None:
         params.stacks(ocellar_class, 0.0)
         label += f"_class{ocellar_class}"
@@ -63,7 +69,7 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
     "preset_name",
     default="paper-table1",
     show_default=True,
-    help="paper-table1, yellow or blue.",
+    help="paper-table1, freyer2020, yellow or blue.",
 )
 @click.option(
     "--class",
@@ -82,9 +88,10 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 @click.option("--layers", type=float, default=None, help="Number of layers N_d.")
 @click.option(
     "--interference",
-    type=click.Choice(["paper", "intensity"]),
+    type=click.Choice(["paper", "intensity", "physical"]),
     default=None,
-    help="Eq. 3/4 as printed (|Σ|/N) or intensity (|Σ|²/N²).",
+    help="Eq. 3/4 as printed (|Σ|/N), intensity (|Σ|²/N²), or physical (exact transfer matrix "
+    "of the rod lattice, real melanin and keratin). Default: the preset's.",
 )
 @click.option(
     "--incidence",
@@ -183,7 +190,7 @@ def _print_table(label, incidence, summaries, colour: bool) -> None:
     from rich.table import Table
 
     table = Table(title=f"{label}, incidence {incidence:g}°")
-    for column in ("observe", "peak (nm)", "FWHM (nm)", "sRGB", "colour"):
+    for column in ("observe", "peak (nm)", "peak πf", "FWHM (nm)", "sRGB", "colour"):
         table.add_column(column, justify="right")
     for s in summaries:
         r, g, b = (round(255 * c) for c in s.srgb)
@@ -191,6 +198,7 @@ def _print_table(label, incidence, summaries, colour: bool) -> None:
         table.add_row(
             f"{s.observe_deg:g}°",
             f"{s.peak_nm:.1f}",
+            f"{s.peak_value:.3f}",
             width,
             f"#{r:02x}{g:02x}{b:02x}",
             f"[on #{r:02x}{g:02x}{b:02x}]      [/]",
