@@ -36,7 +36,7 @@ from pavonine.materials.stack import StackTable
 
 UM_TO_NM = 1000.0
 #: Half-vector tilt (degrees) over which Eq. 7's blend fades to equal weights near the normal.
-ORIENTATION_FADE_DEG = 3.0
+ORIENTATION_FADE_DEG = 6.0
 ORIENTATION_FADE_T2 = math.tan(math.radians(ORIENTATION_FADE_DEG)) ** 2
 
 

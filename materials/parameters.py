@@ -7,7 +7,6 @@ construction so that a round trip through USD (``float``/``float2`` attributes) 
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields, replace
 
@@ -20,10 +19,6 @@ INTERFERENCE_MODES = ("paper", "intensity", "physical")
 AXES = ("long", "short")
 #: Per-class arrays beyond Table 1's interval/radius/count (physical mode; 0 = none/touching).
 STRUCTURE_FIELDS = ("spacing", "channel")
-
-
-class GeometryWarning(UserWarning):
-    """A paper-mode stack whose staggered rods would overlap (kept as the paper prints it)."""
 
 
 class ParameterError(ValueError):
@@ -231,31 +226,43 @@ class FeatherParameters:
         return self
 
     def _check_geometry(self) -> None:
-        """Physical mode: overlapping rods are an error. Paper modes: a warning per class and axis
-        whose staggered rods would overlap (d < √3·a), the paper's own Table 1 values kept."""
+        """Physical mode: rods or channels that overlap are an error (:meth:`RodLattice.check`)."""
+        if self.interference != "physical":
+            return
         for i, cls in enumerate(self.classes):
             for axis in AXES:
                 ends = zip(("black", "white"), getattr(cls, axis), cls.cortex, strict=True)
-                if self.interference == "physical":
-                    for end, stack, cortex in ends:
-                        stack.check_geometry(f"class[{i}].{axis}.{end}", self.lattice, cortex)
-                    continue
+                for end, stack, cortex in ends:
+                    stack.check_geometry(f"class[{i}].{axis}.{end}", self.lattice, cortex)
+
+    def geometry_warnings(self) -> list[tuple[int, str, str]]:
+        """Paper modes: ``(class, axis, message)`` for each class and axis whose rods would overlap
+        if staggered (``d < √3·a``). The paper mode keeps Table 1 as printed (class 4's short axis
+        fails); the physical mode refuses such a stack (:meth:`validate`)."""
+        if self.interference == "physical":
+            return []
+        out = []
+        for i, cls in enumerate(self.classes):
+            for axis in AXES:
                 tight = [
                     (end, stack)
-                    for end, stack, _ in ends
+                    for end, stack in zip(("black", "white"), getattr(cls, axis), strict=True)
                     if stack.interval * (1 + 1e-6) < math.sqrt(3.0) * stack.radius
                 ]
                 if tight:
-                    end, stack = tight[0]
+                    stack = tight[0][1]
                     which = " and ".join(e for e, _ in tight)
-                    warnings.warn(
-                        f"class {i} {axis} axis ({which} end{'s' if len(tight) > 1 else ''}): "
-                        f"staggered rods overlap, d = {stack.interval:.4g} um < sqrt(3)*a = "
-                        f"{math.sqrt(3.0) * stack.radius:.4g} um; kept as printed in the paper "
-                        "mode, an error in the physical mode",
-                        GeometryWarning,
-                        stacklevel=4,
+                    out.append(
+                        (
+                            i,
+                            axis,
+                            f"class {i} {axis} axis ({which} end{'s' if len(tight) > 1 else ''}): "
+                            f"staggered rods overlap, d = {stack.interval:.4g} um < sqrt(3)*a = "
+                            f"{math.sqrt(3.0) * stack.radius:.4g} um; kept as printed in the "
+                            "paper mode, an error in the physical mode",
+                        )
                     )
+        return out
 
     def stacks(self, ocellar_class: int, gradation: float) -> tuple[LayerStack, LayerStack]:
         """``(long, short)`` stacks for a class index and gradation value."""

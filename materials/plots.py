@@ -183,12 +183,13 @@ def physical_comparison(path: Path, grcwa_points: bool = True) -> str | None:
                 ax.set_ylabel(f"{index_label}\nreflectance (normal incidence)", fontsize=8)
             if row == 1:
                 ax.set_xlabel("wavelength (nm)")
-    axes[0, 0].legend(fontsize=7, loc="upper right")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.suptitle(
         "Rod stacks: paper mode vs physical mode vs rigorous coupled-wave analysis", fontsize=11
     )
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
     if note:
-        fig.text(0.5, 0.005, note, ha="center", fontsize=8, color="tab:red")
-    fig.tight_layout()
+        fig.text(0.5, 0.035, note, ha="center", fontsize=8, color="tab:red")
     _save(fig, path)
     return note

@@ -32,22 +32,37 @@ import numpy as np
 from pavonine.materials.lattice import RodLattice, Slice
 
 
-def _slab_permittivities(piece: Slice, period: float, eps_rod, eps_matrix):
-    """``(ε_∥, ε_⊥)`` of one slab's chords (arrays over the wavelength axis)."""
+def _slab_permittivities(piece: Slice, period: float, eps_rod, eps_matrix, tm_rule: str):
+    """``(ε_∥, ε_⊥, ε_z)`` of one slab's chords (arrays over the wavelength axis).
+
+    ``ε_∥`` (E along the rods) is the arithmetic mean, the exact long-wavelength limit. Across the
+    rods the two Wiener bounds are the arithmetic and the harmonic mean; the harmonic one is exact
+    only for flat lamellae (one-harmonic RCWA, ``tm_rule="lamellar"``). Round rods are neither, and
+    ``tm_rule="dykhne"`` takes the geometric mean of the two bounds, which for two phases of equal
+    share is Dykhne's exact 2-D result √(ε₁ε₂) (Dykhne 1971, Sov. Phys. JETP 32:63; Keller 1964),
+    isotropic in the cross-section (``ε_z = ε_⊥``).
+    """
     f_rod, f_air = piece.fractions(period)
     f_matrix = 1.0 - f_rod - f_air
     parallel = f_rod * eps_rod + f_air + f_matrix * eps_matrix
-    perpendicular = 1.0 / (f_rod / eps_rod + f_air + f_matrix / eps_matrix)
-    return parallel, perpendicular
+    harmonic = 1.0 / (f_rod / eps_rod + f_air + f_matrix / eps_matrix)
+    if tm_rule == "lamellar":
+        return parallel, harmonic, parallel
+    if tm_rule != "dykhne":
+        raise ValueError(f"tm_rule must be 'dykhne' or 'lamellar', got {tm_rule!r}")
+    across = np.sqrt(parallel * harmonic)
+    return parallel, across, across
 
 
-def _matrix(eps_par, eps_perp, kx2, k0h, polarisation):
-    """Characteristic matrix (``m11, m12, m21, m22``) of one uniaxial slab."""
+def _matrix(eps_par, eps_perp, kx2, k0h, polarisation, eps_z=None):
+    """Characteristic matrix (``m11, m12, m21, m22``) of one uniaxial slab (``ε_z`` defaults to
+    ``ε_∥``: E_z along the slab's chord faces)."""
+    eps_z = eps_par if eps_z is None else eps_z
     if polarisation == "TE":
         kz = np.sqrt(eps_par - kx2 + 0j)
         eta = kz
     else:
-        kz = np.sqrt(eps_perp * (1.0 - kx2 / eps_par) + 0j)
+        kz = np.sqrt(eps_perp * (1.0 - kx2 / eps_z) + 0j)
         eta = eps_perp / np.where(kz == 0, 1e-30, kz)
     delta = kz * k0h
     c, s = np.cos(delta), np.sin(delta)
@@ -80,6 +95,41 @@ def _admittance(eps, kx2, polarisation):
     return kz if polarisation == "TE" else eps / np.where(kz == 0, 1e-30, kz)
 
 
+def _reflectance(total, eps_above, eps_below, kx2, polarisation) -> np.ndarray:
+    """``|r|²`` of a characteristic matrix between two half-spaces."""
+    eta_above = _admittance(eps_above, kx2, polarisation)
+    eta_below = _admittance(eps_below, kx2, polarisation)
+    b = total[0] + total[1] * eta_below
+    c = total[2] + total[3] * eta_below
+    r = (eta_above * b - c) / (eta_above * b + c)
+    return np.abs(r) ** 2
+
+
+def uniaxial_stack_reflectance(
+    slabs: Sequence[tuple],
+    wavelength_nm: np.ndarray,
+    *,
+    n_above,
+    n_below,
+    sin_above: np.ndarray | float = 0.0,
+    polarisation: str = "TE",
+) -> np.ndarray:
+    """``|r|²`` of planar uniaxial slabs ``(ε_∥, ε_⊥, thickness_nm)`` listed from the top.
+
+    The characteristic-matrix solver the physical mode runs on; an isotropic layer has
+    ``ε_∥ = ε_⊥ = n²``. ``polarisation`` is ``"TE"`` or ``"TM"``.
+    """
+    lam = np.asarray(wavelength_nm, dtype=np.float64)
+    eps_above = np.asarray(n_above, dtype=np.complex128) ** 2
+    kx2 = (np.sqrt(eps_above).real * np.asarray(sin_above, dtype=np.float64)) ** 2 + 0j
+    k0 = 2.0 * math.pi / lam
+    total = (1.0 + 0j, 0j, 0j, 1.0 + 0j)
+    for par, perp, thickness in slabs:
+        total = _mul(total, _matrix(par, perp, kx2, k0 * thickness, polarisation))
+    eps_below = np.asarray(n_below, dtype=np.complex128) ** 2
+    return _reflectance(total, eps_above, eps_below, kx2, polarisation)
+
+
 def lattice_reflectance_emt(
     lattice: RodLattice,
     wavelength_nm: np.ndarray,
@@ -90,14 +140,23 @@ def lattice_reflectance_emt(
     sin_above: np.ndarray | float = 0.0,
     polarisation: str = "unpolarised",
     per_diameter: int = 16,
+    tm_rule: str = "dykhne",
 ) -> np.ndarray:
     """Reflectance of the stack (cortex included) by the effective-medium transfer matrix.
 
     Broadcasts over ``wavelength_nm`` and ``sin_above`` (sine of the incidence angle in the medium
     above, index ``n_above``; default: the matrix). Indices may be complex and arrays over λ.
+    ``tm_rule``: effective permittivity across the rods (:func:`_slab_permittivities`).
     """
     if polarisation == "unpolarised":
-        args = dict(n_rod=n_rod, n_matrix=n_matrix, n_above=n_above, sin_above=sin_above)
+        args = dict(
+            n_rod=n_rod,
+            n_matrix=n_matrix,
+            n_above=n_above,
+            sin_above=sin_above,
+            per_diameter=per_diameter,
+            tm_rule=tm_rule,
+        )
         te = lattice_reflectance_emt(lattice, wavelength_nm, polarisation="TE", **args)
         tm = lattice_reflectance_emt(lattice, wavelength_nm, polarisation="TM", **args)
         return 0.5 * (te + tm)
@@ -112,8 +171,8 @@ def lattice_reflectance_emt(
     def chain(pieces: Sequence[Slice]):
         out = None
         for piece in pieces:
-            par, perp = _slab_permittivities(piece, period, eps_rod, eps_matrix)
-            m = _matrix(par, perp, kx2, k0 * piece.thickness, polarisation)
+            par, perp, z = _slab_permittivities(piece, period, eps_rod, eps_matrix, tm_rule)
+            m = _matrix(par, perp, kx2, k0 * piece.thickness, polarisation, z)
             out = m if out is None else _mul(out, m)
         return out
 
@@ -129,12 +188,7 @@ def lattice_reflectance_emt(
     total = parts[0]
     for part in parts[1:]:
         total = _mul(total, part)
-    eta_above = _admittance(eps_above, kx2, polarisation)
-    eta_below = _admittance(eps_matrix, kx2, polarisation)
-    b = total[0] + total[1] * eta_below
-    c = total[2] + total[3] * eta_below
-    r = (eta_above * b - c) / (eta_above * b + c)
-    return np.abs(r) ** 2
+    return _reflectance(total, eps_above, eps_matrix, kx2, polarisation)
 
 
 # --------------------------------------------------------------------------- tables for the BSDF

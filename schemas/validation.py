@@ -19,7 +19,6 @@ import math
 import os
 import re
 import sys
-import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass
 
@@ -29,7 +28,6 @@ from pavonine.materials import materialx
 from pavonine.materials.parameters import (
     AXES,
     INTERFERENCE_MODES,
-    GeometryWarning,
     LayerStack,
     ParameterError,
 )
@@ -264,20 +262,14 @@ def _check_lattice(prim: Usd.Prim) -> list:
         params = authoring.read_feather_parameters(prim)
     except ParameterError as exc:
         return [_error(prim, "ArrayLengthMismatch", exc.reason, exc.field)]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", GeometryWarning)
-        try:
-            params.validate()
-        except ParameterError as exc:
-            return [
-                _error(prim, exc.kind, f"{exc.field}: {exc.reason}", _attribute_of_field(exc.field))
-            ]
+    try:
+        params.validate()
+    except ParameterError as exc:
+        message = f"{exc.field}: {exc.reason}"
+        return [_error(prim, exc.kind, message, _attribute_of_field(exc.field))]
     return [
-        _error(prim, "StaggeredRodsOverlap", str(w.message), _attr_of(axis, "radius"), WARN)
-        for w in caught
-        if issubclass(w.category, GeometryWarning)
-        for axis in AXES
-        if f" {axis} axis" in str(w.message)
+        _error(prim, "StaggeredRodsOverlap", message, _attr_of(axis, "radius"), WARN)
+        for _, axis, message in params.geometry_warnings()
     ]
 
 

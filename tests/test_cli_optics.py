@@ -97,8 +97,24 @@ def test_figures(runner, tmp_path):
         "fig5_blue.png",
         "fig5_yellow.png",
         "fig7_rod_rows.png",
+        "physical_vs_rcwa.png",
         "table1_swatches.png",
     ]
+
+
+def test_physical_comparison_degrades_without_grcwa(tmp_path, monkeypatch):
+    """Without grcwa (dev extra) the figure is still drawn, without its check points, and says so."""
+    import sys
+
+    import numpy as np
+
+    from pavonine.materials import plots, rcwa
+
+    monkeypatch.setitem(sys.modules, "grcwa", None)  # import grcwa -> ImportError
+    monkeypatch.setattr(rcwa, "lattice_reflectance", lambda _lattice, lam, **_: np.zeros_like(lam))
+    note = plots.physical_comparison(tmp_path / "cmp.png")
+    assert note and "grcwa is not installed" in note
+    assert (tmp_path / "cmp.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_doctor_reports_variant_and_versions(runner):

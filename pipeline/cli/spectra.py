@@ -6,7 +6,6 @@ import csv
 import json
 import math
 import sys
-import warnings
 from contextlib import ExitStack
 from pathlib import Path
 
@@ -29,7 +28,7 @@ def _angles(text: str) -> list[float]:
 
 def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, interference):
     """The material and class selected by the command-line options."""
-    from pavonine.materials.parameters import GeometryWarning, preset, uniform_parameters
+    from pavonine.materials.parameters import preset, uniform_parameters
 
     explicit = [v is not None for v in (interval, radius, layers)]
     if any(explicit):
@@ -51,12 +50,10 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
         label = preset_name
     if interference:
         params = params.with_(interference=interference)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", GeometryWarning)
-        params.validate()
-    for warning in caught:  # only the plotted class's own geometry concerns this plot
-        if f"class {ocellar_class or 0} " in str(warning.message):
-            click.echo(f"warning: {warning.message}", err=True)
+    params.validate()
+    for k, _axis, message in params.geometry_warnings():
+        if k == (ocellar_class or 0):  # only the plotted class's geometry concerns this plot
+            click.echo(f"warning: {message}", err=True)
     if ocellar_class is not None:
         params.stacks(ocellar_class, 0.0)
         label += f"_class{ocellar_class}"
