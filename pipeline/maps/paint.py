@@ -240,7 +240,7 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     klass = np.where(y > 0.40 + 0.03 * edge_noise, 1, 0)
     for cls, (dy, ax, ay) in zip(
         (2, 3, 4, 5),
-        ((0.030, 0.158, 0.205), (0.024, 0.140, 0.178), (0.012, 0.098, 0.120), (0.0, 0.058, 0.070)),
+        ((0.012, 0.142, 0.176), (0.010, 0.125, 0.153), (0.005, 0.088, 0.106), (0.0, 0.053, 0.063)),
         strict=True,
     ):
         shape = notch if cls == 5 else 1.0
@@ -258,7 +258,10 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     # reflectance structures of peacock feathers"), so it shows less structural colour: a dark
     # blue-violet rather than the bright violet of its layer structure alone.
     heart = ndimage.gaussian_filter((klass == 5).astype(np.float32), 1.5 * cv.height / 1024)
-    melanin = melanin * (1.0 - 0.55 * heart)
+    melanin = melanin * (1.0 - 0.35 * heart)
+    # The vane around the eye is brass-green, duller than the rings: less structural colour.
+    vane = ndimage.gaussian_filter((klass <= 1).astype(np.float32), 3.0 * cv.height / 1024)
+    melanin = melanin * (1.0 - 0.3 * vane)
     return {
         "alpha": alpha,
         "ocellar": ocellar_grey(klass),
