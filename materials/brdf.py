@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from pavonine.materials import barbule, layers, rod
-from pavonine.materials.arraymath import NUMPY
+from pavonine.materials.arraymath import NUMPY, bilinear_gather
 from pavonine.materials.parameters import FeatherParameters, LayerStack
 from pavonine.materials.stack import StackTable
 
@@ -64,14 +64,7 @@ class RowTable:
         fc = ops.minimum(ops.maximum(cos_theta * (self.n_cos - 1.0), 0.0), self.n_cos - 1.0001)
         ix, ic = ops.floor(fx), ops.floor(fc)
         tx, tc = fx - ix, fc - ic
-        base = ix * self.n_cos + ic
-        v00 = ops.gather(self.values, base)
-        v01 = ops.gather(self.values, base + 1.0)
-        v10 = ops.gather(self.values, base + self.n_cos)
-        v11 = ops.gather(self.values, base + (self.n_cos + 1.0))
-        v0 = v00 + (v01 - v00) * tc
-        v1 = v10 + (v11 - v10) * tc
-        return v0 + (v1 - v0) * tx
+        return bilinear_gather(self.values, ix * self.n_cos + ic, self.n_cos, tc, tx, ops)
 
 
 @dataclass(frozen=True)

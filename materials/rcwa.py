@@ -88,40 +88,32 @@ class _Solver:
         return w, v, kz
 
     def slab(self, piece: Slice):
-        """Scattering matrix ``(S11, S12)`` of a symmetric slab (S22 = S11, S21 = S12)."""
-        w, v, kz = self.modes(piece) if piece.segments else self._uniform()
-        x = np.exp(1j * kz * (2.0 * np.pi / self.lam[:, None]) * piece.thickness)
-        a = (
-            np.linalg.solve(w, np.eye(self.n))
-            + np.linalg.solve(v, np.eye(self.n)) * self.v_gap[:, None, :]
-        )
-        b = 2.0 * np.linalg.solve(w, np.eye(self.n)) - a
-        a_inv = np.linalg.inv(a)
-        xb = x[:, :, None] * b
-        d = a - xb @ a_inv @ xb
-        s11 = np.linalg.solve(d, xb @ a_inv @ (x[:, :, None] * a) - b)
-        s12 = np.linalg.solve(d, x[:, :, None] * (a - b @ a_inv @ b))
-        return s11, s12, s12, s11
+        """Scattering matrix of a patterned slab (see :meth:`_slab`)."""
+        modes = self.modes(piece) if piece.segments else self._uniform_modes(self.eps["matrix"])
+        return self._slab(*modes, piece.thickness)
 
     def uniform_slab(self, eps: np.ndarray, thickness: float):
-        kz = _kz(eps[:, None] - self.kx**2)
-        w = np.broadcast_to(np.eye(self.n), (*kz.shape, self.n)).astype(complex)
-        v = w * self._v_uniform(kz, eps)[:, None, :]
-        x = np.exp(1j * kz * (2.0 * np.pi / self.lam[:, None]) * thickness)
-        a = np.linalg.inv(w) + np.linalg.inv(v) * self.v_gap[:, None, :]
-        b = 2.0 * np.linalg.inv(w) - a
-        a_inv = np.linalg.inv(a)
-        xb = x[:, :, None] * b
-        d = a - xb @ a_inv @ xb
-        s11 = np.linalg.solve(d, xb @ a_inv @ (x[:, :, None] * a) - b)
-        s12 = np.linalg.solve(d, x[:, :, None] * (a - b @ a_inv @ b))
-        return s11, s12, s12, s11
+        """Scattering matrix of a homogeneous slab of permittivity ``eps`` (per wavelength)."""
+        return self._slab(*self._uniform_modes(eps), thickness)
 
-    def _uniform(self):
-        eps = self.eps["matrix"]
+    def _uniform_modes(self, eps: np.ndarray):
         kz = _kz(eps[:, None] - self.kx**2)
         w = np.broadcast_to(np.eye(self.n), (*kz.shape, self.n)).astype(complex)
         return w, w * self._v_uniform(kz, eps)[:, None, :], kz
+
+    def _slab(self, w, v, kz, thickness: float):
+        """``(S11, S12, S21, S22)`` of a symmetric slab with modes ``(W, V, k_z)`` (Rumpf 2011,
+        Eq. 36–39): ``A = W⁻¹W₀ + V⁻¹V₀``, ``B = W⁻¹W₀ − V⁻¹V₀``, ``X = exp(i k_z k₀ h)``."""
+        x = np.exp(1j * kz * (2.0 * np.pi / self.lam[:, None]) * thickness)
+        w_inv = np.linalg.inv(w)
+        a = w_inv + np.linalg.inv(v) * self.v_gap[:, None, :]
+        b = 2.0 * w_inv - a
+        a_inv = np.linalg.inv(a)
+        xb = x[:, :, None] * b
+        d = a - xb @ a_inv @ xb
+        s11 = np.linalg.solve(d, xb @ a_inv @ (x[:, :, None] * a) - b)
+        s12 = np.linalg.solve(d, x[:, :, None] * (a - b @ a_inv @ b))
+        return s11, s12, s12, s11
 
     def region(self, eps: np.ndarray, side: str):
         """Scattering matrix of the semi-infinite medium above (``ref``) or below (``trn``)."""

@@ -29,6 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from pavonine.materials.arraymath import bilinear_gather
 from pavonine.materials.lattice import RodLattice, Slice
 
 
@@ -316,13 +317,7 @@ class StackTable:
 
         def plane(index):
             base = index * per_entry + il * self.n_cos + ic
-            v00 = ops.gather(self.values, base)
-            v01 = ops.gather(self.values, base + 1.0)
-            v10 = ops.gather(self.values, base + self.n_cos)
-            v11 = ops.gather(self.values, base + (self.n_cos + 1.0))
-            v0 = v00 + (v01 - v00) * tc
-            v1 = v10 + (v11 - v10) * tc
-            return v0 + (v1 - v0) * tl
+            return bilinear_gather(self.values, base, self.n_cos, tc, tl, ops)
 
         if self.k == 1:
             return plane(entry)
