@@ -114,7 +114,7 @@ def table1_swatches(
     ax.axvline(len(observe_deg) - 0.5, color="white", lw=3)
     ax.set_yticks(range(len(rows)), labels, fontsize=8)
     ax.set_xlabel("plane of observation and angle (incidence 0°)")
-    ax.set_title("Table 1 classes: structural colour", fontsize=10)
+    ax.set_title(f"Ocellar classes: structural colour ({params.interference} mode)", fontsize=10)
     _save(fig, path)
     return grid
 

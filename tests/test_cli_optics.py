@@ -155,3 +155,23 @@ def test_maps_rejects_a_negative_seed(runner, tmp_path):
     result = runner.invoke(cli, ["maps", "eye", str(tmp_path / "m"), "--seed", "-1"])
     assert result.exit_code == 2 and "--seed" in result.output
     assert not (tmp_path / "m").exists()
+
+
+def test_figures_in_the_physical_mode(runner, tmp_path, monkeypatch):
+    """``--interference physical`` draws Figure 5 and the class swatches in the physical mode
+    (the freyer2020 classes); the RCWA figure is stubbed here (it has its own tests)."""
+    from pavonine.materials import plots
+
+    seen = []
+    original = plots.table1_swatches
+
+    def spy(path, params):
+        seen.append(params.interference)
+        return original(path, params)
+
+    monkeypatch.setattr(plots, "table1_swatches", spy)
+    monkeypatch.setattr(plots, "physical_comparison", lambda path: path.write_bytes(b"stub"))
+    result = runner.invoke(cli, ["figures", str(tmp_path), "--interference", "physical"])
+    assert result.exit_code == 0, result.output
+    assert seen == ["physical"]
+    assert (tmp_path / "fig5_blue.png").stat().st_size > 1000
