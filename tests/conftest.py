@@ -37,7 +37,7 @@ def scalar_centre(restore_variant):
 @pytest.fixture(scope="session")
 def eye_asset(tmp_path_factory):
     """A converted eye feather shared by the portable-asset tests (256-px maps, 12k/4k/1k
-    triangles, 256² baked textures). Tests that change it work on a copy."""
+    triangles, 256² baked textures; the shipped feathers' freyer2020 preset). Tests that change it work on a copy."""
     from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
 
@@ -45,7 +45,7 @@ def eye_asset(tmp_path_factory):
     write_maps(generate_maps("eye", 256, seed=4), work / "m")
     maps = "\n".join(f'{name} = "m/{name}.png"' for name in MAP_NAMES)
     (work / "eye.toml").write_text(
-        f'name = "eye_feather"\n[maps]\n{maps}\n[material]\npreset = "paper-table1"\n'
+        f'name = "eye_feather"\n[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
         "[geometry]\nlength_cm = 20\nrachis_length = 0.74\n"
         "[geometry.lod]\nhigh = 12000\nmedium = 4000\nlow = 1000\n[bake]\nresolution = 256\n"
     )
