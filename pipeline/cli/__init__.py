@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "check-renders": "pavonine.pipeline.cli.check_renders:check_renders",
     "maps": "pavonine.pipeline.cli.maps:maps",
     "convert": "pavonine.pipeline.cli.convert:convert",
+    "assemble": "pavonine.pipeline.cli.assemble:assemble",
 }
 
 
