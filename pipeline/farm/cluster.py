@@ -42,8 +42,13 @@ def _distributed():
 
 
 @contextlib.contextmanager
-def open_cluster(workers: int | None = None, scheduler: str | None = None) -> Iterator[Cluster]:
-    """Connect to ``scheduler`` or start ``workers`` local ones; closes what it started."""
+def open_cluster(
+    workers: int | None = None, scheduler: str | None = None, *, threads: int | None = None
+) -> Iterator[Cluster]:
+    """Connect to ``scheduler`` or start ``workers`` local ones; closes what it started.
+
+    ``threads``: Dr.Jit threads per local render [default: cores // workers].
+    """
     distributed = _distributed()
     if scheduler is not None:
         try:
@@ -57,7 +62,7 @@ def open_cluster(workers: int | None = None, scheduler: str | None = None) -> It
             client.close()
         return
     count = max(1, int(workers or 1))
-    threads = max(1, (os.cpu_count() or 1) // count)
+    threads = threads or max(1, (os.cpu_count() or 1) // count)
     cluster = distributed.LocalCluster(
         n_workers=count,
         threads_per_worker=1,
