@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from pavonine.pipeline.convert.recipe import _NAME_RE, _check_keys, _fail, _number
-from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.convert.recipe import _NAME_RE, _check_keys, _fail, _number, read_toml
 
 LODS = ("high", "medium", "low")
 #: Most feathers one train may hold (a real train has about 200; this is 10× that).
@@ -181,16 +179,7 @@ def _parse_variation(path: Path, table: Any) -> Variation:
 
 def parse_train_recipe(path: str | os.PathLike) -> TrainRecipe:
     """Read and check a train recipe; raises :class:`InputError` naming the file and key."""
-    path = Path(path).resolve()
-    try:
-        with open(path, "rb") as handle:
-            data = tomllib.load(handle)
-    except FileNotFoundError:
-        raise InputError(str(path), "recipe not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(str(path), f"not valid TOML ({exc})") from None
-    except OSError as exc:
-        raise InputError(str(path), f"cannot read ({exc.strerror})") from None
+    path, data = read_toml(path)
     allowed = {"name", "version", "seed", "lod", "components", "rows", "jitter", "variation"}
     _check_keys(path, data, allowed, "")
     name = data.get("name")

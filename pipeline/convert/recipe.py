@@ -312,18 +312,23 @@ def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
     return params, name
 
 
-def parse_recipe(path: str | os.PathLike) -> Recipe:
-    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
+def read_toml(path: str | os.PathLike) -> tuple[Path, dict]:
+    """A recipe file's absolute path and its TOML tables; :class:`InputError` if unreadable."""
     path = Path(path).resolve()
     try:
         with open(path, "rb") as handle:
-            data = tomllib.load(handle)
+            return path, tomllib.load(handle)
     except FileNotFoundError:
         raise InputError(str(path), "recipe not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(str(path), f"not valid TOML ({exc})") from None
     except OSError as exc:
         raise InputError(str(path), f"cannot read ({exc.strerror})") from None
+
+
+def parse_recipe(path: str | os.PathLike) -> Recipe:
+    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
+    path, data = read_toml(path)
     _check_keys(path, data, {"name", "version", "maps", "material", "geometry"}, "")
     if "name" not in data:
         raise _fail(path, "name", 'missing (the asset\'s name, e.g. name = "eye_feather")')

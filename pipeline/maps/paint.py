@@ -343,14 +343,8 @@ def _fishtail(cv: _Canvas) -> dict[str, np.ndarray]:
     grain = cv.noise(0.012)
     displacement = solid * np.clip(0.76 * ridge + 0.14 + 0.05 * grain, 0.0, 1.0)
     melanin = _melanin_fade(cv, solid, 0.04, 0.2, cv.noise(0.05)) * (1.0 - 0.5 * loose)
-    return {
-        "alpha": alpha,
-        "ocellar": ocellar_grey(klass),
-        "gradation": gradation,
-        "angle": angle,
-        "displacement": displacement,
-        "melanin": melanin,
-    }
+    maps = (alpha, ocellar_grey(klass), gradation, angle, displacement, melanin)
+    return dict(zip(MAP_NAMES, maps, strict=True))
 
 
 @dataclass(frozen=True)
