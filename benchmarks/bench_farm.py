@@ -21,6 +21,7 @@ import pickle
 import statistics
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 SCENES = Path(__file__).parents[1] / "assets" / "scenes"
@@ -39,10 +40,7 @@ def turntable_jobs(scene: Path, folder: Path, frames: int, size: tuple[int, int]
     jobs = plan(
         str(layer), folder / "tt.exr", [View("", None)], list(range(frames)), resolution=size
     )
-    return [
-        job.__class__(**{**job.__dict__, "camera": cameras[i], "time": None})
-        for i, job in enumerate(jobs)
-    ]
+    return [replace(job, camera=cameras[i], time=None) for i, job in enumerate(jobs)]
 
 
 def timed_batch(workers: int, threads: int, jobs, warm, spp: int) -> tuple[float, float, object]:
@@ -98,7 +96,7 @@ def main() -> None:
             client.gather(client.map(noop, range(200), pure=False))
             round_trip = (time.perf_counter() - begin) / 200
             tiny = make_tasks(warm[:1], spp=1, seed=0, shards=1, variant=None, threads=1)[0]
-            tiny = tiny.__class__(**{**tiny.__dict__, "resolution": (8, 8)})
+            tiny = replace(tiny, resolution=(8, 8))
             client.submit(render_task, tiny, pure=False).result()
             fixed = []
             for _ in range(5):

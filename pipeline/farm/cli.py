@@ -4,7 +4,7 @@ pick where they run (this process, local workers, an existing scheduler), run, r
 from __future__ import annotations
 
 import os
-import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -50,9 +50,10 @@ def product_views(stage_path: Path, products: tuple[str, ...], every: bool) -> l
             product.GetPixelAspectRatioAttr().HasAuthoredValue()
             or product.GetAspectRatioConformPolicyAttr().HasAuthoredValue()
         ):
-            warnings.warn(
-                f"{path}: the product's pixelAspectRatio/aspectRatioConformPolicy are not used per product; the settings' apply",
-                stacklevel=2,
+            click.echo(
+                f"warning: {path}: a product's pixelAspectRatio and aspectRatioConformPolicy are "
+                "not applied per product (the RenderSettings' are)",
+                err=True,
             )
         views.append(View(prim.GetName(), camera, resolution))
     return views
@@ -124,7 +125,7 @@ def render_batch(
         views = [View("", None)]
         frames = list(range(turntable))
         jobs = [
-            job.__class__(**{**job.__dict__, "camera": paths[i], "time": time})
+            replace(job, camera=paths[i], time=time)
             for i, job in enumerate(
                 plan(
                     str(stage_path),

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 from pavonine.pipeline.errors import InputError
@@ -156,11 +156,6 @@ def shard_seed(seed: int, shard: int) -> int:
     z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
     z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
     return int((z ^ (z >> 31)) & 0x7FFFFFFF)
-
-
-def with_time(job: RenderJob, time: float | None) -> RenderJob:
-    """``job`` at another time code."""
-    return replace(job, time=time)
 
 
 def shards_for(spp: int, moments: bool, shards: int) -> list[int]:
