@@ -106,10 +106,8 @@ def render_batch(
     output = output or Path(stage.stem + ".exr")
     if output.suffix.lower() != ".exr":
         raise InputError(str(output), "output must be an .exr file (use --png for a display image)")
-    if png_out is not None:
-        raise InputError(
-            "--png-out", "names one file; for a batch use --png (a PNG beside each EXR)"
-        )
+    if png_out is not None and png_out.suffix.lower() != ".png":
+        raise InputError(f"--png-out {png_out}", "must name a .png file")
     view = check_view(view or DEFAULT_VIEW)
     frames = parse_frames(frames_text) if frames_text else None
     stage_path = stage.resolve()
@@ -117,6 +115,10 @@ def render_batch(
         from pavonine.render.turntable import write_turntable_layer
 
         check_writable(output)
+        if png_out is not None and turntable > 1:
+            raise InputError(
+                "--png-out", "names one file; for a batch use --png (a PNG beside each EXR)"
+            )
         layer = output.with_name(f"{output.name.split('.')[0]}.turntable.usda")
         paths = write_turntable_layer(
             stage_path, layer, turntable, camera=cameras[0] if cameras else None, time=time
@@ -153,6 +155,12 @@ def render_batch(
             png=png,
             variance=variance,
         )
+    if png_out is not None:
+        if len(jobs) > 1:
+            raise InputError(
+                "--png-out", "names one file; for a batch use --png (a PNG beside each EXR)"
+            )
+        jobs = [replace(jobs[0], png=png_out)]
     for job in jobs:
         for path in (job.output, job.png, job.variance):
             if path is not None:
