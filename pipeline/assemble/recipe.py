@@ -12,7 +12,14 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from pavonine.pipeline.convert.recipe import _NAME_RE, _check_keys, _fail, _number, read_toml
+from pavonine.pipeline.convert.recipe import (
+    _NAME_RE,
+    _check_keys,
+    _fail,
+    _number,
+    name_and_version,
+    read_toml,
+)
 
 LODS = ("high", "medium", "low")
 #: Most feathers one train may hold (a real train has about 200; this is 10× that).
@@ -182,14 +189,7 @@ def parse_train_recipe(path: str | os.PathLike) -> TrainRecipe:
     path, data = read_toml(path)
     allowed = {"name", "version", "seed", "lod", "components", "rows", "jitter", "variation"}
     _check_keys(path, data, allowed, "")
-    name = data.get("name")
-    if not isinstance(name, str) or not _NAME_RE.match(name):
-        raise _fail(
-            path, "name", f"must be a USD identifier ([A-Za-z_][A-Za-z0-9_]*), got {name!r}"
-        )
-    version = data.get("version", "1.0")
-    if not isinstance(version, str):
-        raise _fail(path, "version", f"expected a string, got {version!r}")
+    name, version = name_and_version(path, data, "peacock_train")
     seed = int(_number(path, "seed", data.get("seed", 0), positive=False, integer=True))
     lod = data.get("lod", "medium")
     if lod not in LODS:

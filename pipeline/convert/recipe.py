@@ -326,12 +326,10 @@ def read_toml(path: str | os.PathLike) -> tuple[Path, dict]:
         raise InputError(str(path), f"cannot read ({exc.strerror})") from None
 
 
-def parse_recipe(path: str | os.PathLike) -> Recipe:
-    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
-    path, data = read_toml(path)
-    _check_keys(path, data, {"name", "version", "maps", "material", "geometry"}, "")
+def name_and_version(path: Path, data: dict, example: str) -> tuple[str, str]:
+    """A recipe's ``name`` (a USD identifier) and ``version`` (default ``"1.0"``), checked."""
     if "name" not in data:
-        raise _fail(path, "name", 'missing (the asset\'s name, e.g. name = "eye_feather")')
+        raise _fail(path, "name", f'missing (the asset\'s name, e.g. name = "{example}")')
     name = data["name"]
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise _fail(
@@ -340,6 +338,14 @@ def parse_recipe(path: str | os.PathLike) -> Recipe:
     version = data.get("version", "1.0")
     if not isinstance(version, str):
         raise _fail(path, "version", f"expected a string, got {version!r}")
+    return name, version
+
+
+def parse_recipe(path: str | os.PathLike) -> Recipe:
+    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
+    path, data = read_toml(path)
+    _check_keys(path, data, {"name", "version", "maps", "material", "geometry"}, "")
+    name, version = name_and_version(path, data, "eye_feather")
     maps_table = data.get("maps")
     if not isinstance(maps_table, dict):
         raise _fail(path, "maps", "missing table [maps] naming the six maps")
