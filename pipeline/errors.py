@@ -27,6 +27,9 @@ class InputError(Exception):
         self.where = where
         self.message = message
 
+    def __reduce__(self):  # picklable, so a worker process can send it back to the client
+        return (type(self), (self.where, self.message))
+
 
 def one_line_errors(func: F) -> F:
     """Turn :class:`InputError`/:class:`ParameterError` into ``error: …`` on stderr and exit 2."""

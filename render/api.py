@@ -24,7 +24,7 @@ import numpy as np
 from pavonine.backend import select_variant
 from pavonine.pipeline.errors import InputError
 from pavonine.render import camera as camera_translator
-from pavonine.render import lights
+from pavonine.render import instance_primvars, lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
@@ -138,6 +138,7 @@ def render_stage(
         raise InputError(
             os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"
         ) from None
+    instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
 
     spp_pass = _samples_per_pass(spp, film_width * height, moments)
     passes = spp // spp_pass

@@ -100,6 +100,7 @@ class StageDelegate:
         self.table = instancing.InstanceTable()
         self._materials: dict[str, materials.MaterialSpec] = {}
         self._bsdfs: dict[tuple[str, bool], object] = {}
+        self.feather_bsdfs: list = []  # the pavonine_feather objects (per-instance primvars)
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
         self.skinning = skel.Skinning()
@@ -117,7 +118,9 @@ class StageDelegate:
                 continue
             kind = prim.GetTypeName()
             if prim.IsInstance():
-                instancing.native_instance(prim, self.xforms.world(prim), self.table, self._subtree)
+                instancing.native_instance(
+                    prim, self.xforms.world(prim), self.table, self._subtree, self.time
+                )
                 it.PruneChildren()
             elif kind == "Mesh" or shapes.is_implicit(prim):
                 world = self.skinning.transforms.get(str(prim.GetPath()))
@@ -333,7 +336,13 @@ class StageDelegate:
             elif wrap == "front":
                 bsdf = facing.cull_back_faces(bsdf)
             try:
-                self._bsdfs[key] = mi.load_dict(bsdf)
+                if spec.is_feather:
+                    from pavonine.render.feather_bsdf import load_with_feathers
+
+                    self._bsdfs[key], feathers = load_with_feathers(bsdf)
+                    self.feather_bsdfs.extend(feathers)
+                else:
+                    self._bsdfs[key] = mi.load_dict(bsdf)
             except Exception as exc:
                 self.diag.warn(
                     spec.key,

@@ -11,6 +11,10 @@ Per shading point it reads four maps through Mitsuba textures at ``si.uv`` (data
   set (the render delegate guarantees it on feather meshes), else the surface tangent ``dp/du``
 * ``melanin``: structural share w (1 = full structural colour, 0 = melanin brown)
 
+Per-instance primvars (``pavonine:gradationOffset`` added to t, ``pavonine:structuralScale``
+multiplying w) are gathered per lane from tables bound after the scene is built
+(:mod:`pavonine.render.instance_primvars`).
+
 The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
 detail); :func:`feather_bsdf_dict` builds that nesting. Sampling: visible normals of the
 structural lobe's anisotropic Beckmann distribution (``mi.MicrofacetDistribution``) with
@@ -44,6 +48,10 @@ QUANTITIES = ("interval", "radius", "count")
 DISPERSIONS = ("melanin", "keratin")
 DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
 MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
+#: Per-instance frame table: world→instance 3×4 (row-major) then instance→world linear 3×3.
+INSTANCE_FRAME = "instance_frame"
+FRAME_FLOATS = 21
+_IDENTITY_FRAME = (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0)
 
 
 def encode_parameters(params: FeatherParameters) -> dict:
@@ -137,6 +145,28 @@ def feather_bsdf_dict(
     if maps.get("alpha"):
         bsdf = {"type": "mask", "opacity": _bitmap(maps["alpha"]), "bsdf": bsdf}
     return bsdf
+
+
+def load_with_feathers(bsdf: dict) -> tuple[object, list]:
+    """``mi.load_dict(bsdf)``, and the ``pavonine_feather`` objects inside its wrappers.
+
+    The feather nodes are loaded first and nested as objects, so the caller keeps a handle on
+    them (per-instance primvar tables are bound after the scene is built).
+    """
+    import mitsuba as mi
+
+    feathers: list = []
+
+    def load(node):
+        if isinstance(node, dict) and node.get("type") == PLUGIN_NAME:
+            feathers.append(mi.load_dict(node))
+            return feathers[-1]
+        if isinstance(node, dict):
+            return {k: load(v) for k, v in node.items()}
+        return node
+
+    loaded = load(bsdf)
+    return (loaded if not isinstance(loaded, dict) else mi.load_dict(loaded)), feathers
 
 
 def class_tables(params: FeatherParameters, ops) -> dict:
@@ -243,6 +273,58 @@ def _plugin_class(variant: str):
                 mi.BSDFFlags.DiffuseReflection | sided | mi.BSDFFlags.SpatiallyVarying,
             ]
             self.m_flags = lobes | sided | mi.BSDFFlags.Anisotropic | mi.BSDFFlags.SpatiallyVarying
+            self.instance_tables: dict[str, tuple] = {}
+
+        def set_instance_table(self, key: str, table, neutral: float) -> None:
+            """Per-instance values of ``key`` by registry id (``pavonine.render.instance_primvars``)."""
+            self.instance_tables[key] = (table, float(neutral))
+
+        def _barb_tangent(self, si, active):
+            """The mesh's barb-tangent attribute at ``si``, in world space.
+
+            Mitsuba's ``Mesh.eval_attribute`` finds barycentric coordinates from ``si.p``
+            against the mesh's own vertices, so a hit through an ``instance`` (``si.p`` in world
+            space, the vertices in prototype space) reads garbage. The hit point is taken into
+            the instance's space first and the attribute back out (``INSTANCE_FRAME`` table).
+            """
+            entry = self.instance_tables.get(INSTANCE_FRAME)
+            if entry is None:
+                return mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, si, active))
+            table = entry[0]
+            if isinstance(table, dict):  # scalar variants: the instance object itself
+                frame = table.get(si.instance.id()) if si.instance is not None else None
+                m = frame if frame is not None else _IDENTITY_FRAME
+            else:
+                index = dr.reinterpret_array(mi.UInt32, si.instance)
+                inside = index < dr.width(table) // FRAME_FLOATS
+                base = dr.select(inside, index, 0) * FRAME_FLOATS
+                m = [dr.gather(mi.Float, table, base + k, active) for k in range(FRAME_FLOATS)]
+            p = si.p
+            local = dr.zeros(mi.SurfaceInteraction3f)
+            local.prim_index = si.prim_index
+            local.p = mi.Point3f(
+                *(
+                    m[4 * r] * p.x + m[4 * r + 1] * p.y + m[4 * r + 2] * p.z + m[4 * r + 3]
+                    for r in range(3)
+                )
+            )
+            a = mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, local, active))
+            return mi.Vector3f(
+                *(m[12 + 3 * r] * a.x + m[13 + 3 * r] * a.y + m[14 + 3 * r] * a.z for r in range(3))
+            )
+
+        def _per_instance(self, key: str, si, active):
+            """The value of ``key`` for the instance each lane hit (``None``: nothing bound)."""
+            entry = self.instance_tables.get(key)
+            if entry is None:
+                return None
+            table, neutral = entry
+            if isinstance(table, dict):  # scalar variants: the instance object itself
+                instance = si.instance
+                return table.get(instance.id(), neutral) if instance is not None else neutral
+            index = dr.reinterpret_array(mi.UInt32, si.instance)
+            inside = index < dr.width(table)
+            return dr.select(inside, dr.gather(mi.Float, table, index, active & inside), neutral)
 
         # -- per-point material state ------------------------------------------------------
         def _map(self, name: str, si, active):
@@ -255,16 +337,18 @@ def _plugin_class(variant: str):
             """Barbule-frame rotation (cos, sin), the two stacks and the structural share at ``si``."""
             grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
             cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
-            t = dr.clip(self._map("gradation", si, active), 0.0, 1.0)
+            t = self._map("gradation", si, active)
+            offset = self._per_instance("gradation_offset", si, active)
+            t = dr.clip(t if offset is None else t + offset, 0.0, 1.0)
             stacks = self.material.stacks(cls, t)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
             if self.barb_tangents:
-                barb = si.sh_frame.to_local(
-                    mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, si, active))
-                )
+                barb = si.sh_frame.to_local(self._barb_tangent(si, active))
                 usable = dr.square(barb.x) + dr.square(barb.y) > 1e-12
                 angle += dr.select(usable, dr.atan2(barb.y, barb.x), 0.0)
-            share = dr.clip(self._map("melanin", si, active), 0.0, 1.0)
+            share = self._map("melanin", si, active)
+            scale = self._per_instance("structural_scale", si, active)
+            share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
             return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share
 
         @staticmethod

@@ -8,6 +8,8 @@
   instance prim at its world transform.
 
 Nested instancing is flattened into the outer prototype (Mitsuba shape groups do not nest).
+Per-instance primvars the feather BSDF reads are recorded per instance id (``primvars``) and
+bound after the scene is built (:mod:`pavonine.render.instance_primvars`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.instance_primvars import inherited_primvars, instancer_primvars
 from pavonine.render.xform import to_mitsuba, transform_points
 
 
@@ -38,6 +41,7 @@ class InstanceTable:
     instances: dict[str, dict] = field(default_factory=dict)
     prototypes: dict[str, Prototype] = field(default_factory=dict)
     world_bounds: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    primvars: dict[str, dict[str, float]] = field(default_factory=dict)  # instance id → values
 
     def add_prototype(self, key: str, shapes: list, bounds) -> Prototype:
         group_id = f"shapegroup_{len(self.groups)}"
@@ -49,12 +53,17 @@ class InstanceTable:
         self.prototypes[key] = proto
         return proto
 
-    def add_instance(self, proto: Prototype, world_usd: np.ndarray) -> None:
+    def add_instance(
+        self, proto: Prototype, world_usd: np.ndarray, primvars: dict[str, float] | None = None
+    ) -> None:
         if not proto.group_id:
             return
         import mitsuba as mi
 
-        self.instances[f"instance_{len(self.instances)}"] = {
+        key = f"instance_{len(self.instances)}"
+        if primvars:
+            self.primvars[key] = primvars
+        self.instances[key] = {
             "type": "instance",
             "shapegroup": {"type": "ref", "id": proto.group_id},
             "to_world": mi.ScalarTransform4f(to_mitsuba(world_usd).tolist()),
@@ -99,6 +108,7 @@ def point_instancer(
         )
         return
     mask = instancer.ComputeMaskAtTime(time)
+    per_instance = instancer_primvars(instancer, time, len(indices), diag)
     prototypes: dict[int, Prototype] = {}
     out_of_range = 0
     for i, (proto_index, matrix) in enumerate(zip(indices, matrices, strict=True)):
@@ -116,7 +126,10 @@ def point_instancer(
             else:
                 shapes, bounds = translate_subtree(root, root)
                 prototypes[proto_index] = table.add_prototype(key, shapes, bounds)
-        table.add_instance(prototypes[proto_index], np.array(matrix, dtype=np.float64) @ world_usd)
+        values = {name: float(array[i]) for name, array in per_instance.items()}
+        table.add_instance(
+            prototypes[proto_index], np.array(matrix, dtype=np.float64) @ world_usd, values
+        )
     if out_of_range:
         diag.warn(where, f"{out_of_range} protoIndices out of range; those instances skipped")
 
@@ -126,6 +139,7 @@ def native_instance(
     world_usd: np.ndarray,
     table: InstanceTable,
     translate_subtree: SubtreeTranslator,
+    time: Usd.TimeCode | None = None,
 ) -> None:
     """Add an instanceable prim: its prototype once (from this instance's proxies), then the instance."""
     key = str(prim.GetPrototype().GetPath())
@@ -133,4 +147,5 @@ def native_instance(
     if proto is None:
         shapes, bounds = translate_subtree(prim, prim)
         proto = table.add_prototype(key, shapes, bounds)
-    table.add_instance(proto, world_usd)
+    primvars = inherited_primvars(prim, Usd.TimeCode.Default() if time is None else time)
+    table.add_instance(proto, world_usd, primvars)

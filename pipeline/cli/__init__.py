@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "bake": "pavonine.pipeline.cli.bake:bake",
     "package": "pavonine.pipeline.cli.package:package",
     "export": "pavonine.pipeline.cli.export:export",
+    "assemble": "pavonine.pipeline.cli.assemble:assemble",
 }
 
 

@@ -30,8 +30,16 @@ EXIT_INTERNAL = 1
     help="Convert this many recipes at once, in worker processes.",
 )
 @click.option("--force", is_flag=True, help="Replace assets that already exist.")
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    help="Convert on an existing Dask cluster (tcp://host:8786) instead of local processes; "
+    "recipes and maps must be on storage every worker sees at the same path (docs/farm.md).",
+)
 @one_line_errors
-def convert(recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool) -> None:
+def convert(
+    recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool, scheduler: str | None
+) -> None:
     """Convert feather RECIPEs (TOML: maps, material, geometry) into USD assets.
 
     Each asset is written atomically; a failing recipe does not stop the others, and the
@@ -62,14 +70,23 @@ def convert(recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool) -> N
         def on_done(result) -> None:
             progress.advance(task)
 
-        results = convert_many(
-            list(recipes),
-            outdir,
-            jobs=jobs,
-            force=force,
-            on_done=on_done,
-            on_stage=on_stage if jobs == 1 else None,
-        )
+        if scheduler is not None:
+            from pavonine.pipeline.farm.cluster import open_cluster
+            from pavonine.pipeline.farm.convert import convert_on_cluster
+
+            with open_cluster(scheduler=scheduler) as cluster:
+                results = convert_on_cluster(
+                    list(recipes), outdir, cluster.client, force=force, on_done=on_done
+                )
+        else:
+            results = convert_many(
+                list(recipes),
+                outdir,
+                jobs=jobs,
+                force=force,
+                on_done=on_done,
+                on_stage=on_stage if jobs == 1 else None,
+            )
 
     failed = [r for r in results if not r.ok]
     if len(recipes) == 1 and failed:

@@ -8,7 +8,7 @@ import click
 
 from pavonine.pipeline.errors import InputError, one_line_errors
 
-KIND_NAMES = ("eye", "blue", "yellow")
+KIND_NAMES = ("eye", "blue", "yellow", "fishtail")
 
 
 @click.command("maps")
@@ -43,7 +43,8 @@ def maps(kind: str, outdir: Path, size: int, seed: int, fmt: str, contact_sheet:
     """Write alpha, ocellar, gradation, angle, displacement and melanin maps of KIND to OUTDIR.
 
     KIND is eye (a train eye feather with its ocellus in six classes), blue (a blue body
-    feather) or yellow (a yellow covert). Encodings: docs/pipeline.md.
+    feather), yellow (a yellow covert) or fishtail (a T-shaped feather from the train's edge).
+    Encodings: docs/pipeline.md.
     """
     from rich.progress import Progress
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.pipeline.farm.options import farm_options
 
 
 @click.command("render")
@@ -42,9 +43,13 @@ from pavonine.pipeline.errors import InputError, one_line_errors
 )
 @click.option(
     "--camera",
+    "cameras",
     metavar="PRIM",
-    help="Camera prim path [default: RenderSettings camera, else the first camera, else a framing camera].",
+    multiple=True,
+    help="Camera prim path [default: RenderSettings camera, else the first camera, else a framing "
+    "camera]; repeat it to render several cameras (one image each).",
 )
+@farm_options
 @click.option(
     "--time", "time_", type=float, default=None, help="USD time code [default: the stage's start]."
 )
@@ -66,7 +71,15 @@ def render(
     png_out: Path | None,
     spp: int,
     resolution: str | None,
-    camera: str | None,
+    cameras: tuple[str, ...],
+    products: tuple[str, ...],
+    all_products: bool,
+    frames: str | None,
+    turntable: int | None,
+    variance: bool,
+    workers: int | None,
+    scheduler: str | None,
+    split: int | None,
     time_: float | None,
     seed: int,
     variant: str | None,
@@ -77,6 +90,10 @@ def render(
 
     Without a camera the stage is framed automatically; without lights it is lit by a default
     sun (from the right) and sky, so a bare feather asset renders as it is.
+
+    Frame ranges, turntables, several cameras or RenderProducts write numbered images
+    (OUT.####.exr; docs/farm.md) and run on a Dask cluster: embedded (--workers N, the default
+    for more than one image) or existing (--scheduler ADDRESS).
     """
     from pavonine.materials.colour import DEFAULT_VIEW
     from pavonine.render.api import render_stage
@@ -86,6 +103,16 @@ def render(
 
     # Everything the user typed is checked before the (possibly long) render.
     size = None if resolution is None else parse_resolution(resolution)
+    batch = (frames, turntable, products, all_products, variance, scheduler, split)
+    if len(cameras) > 1 or any(batch) or workers:
+        from pavonine.pipeline.farm.cli import render_batch
+
+        render_batch(
+            stage, output, png, png_out, spp, size, cameras, products, all_products, frames,
+            turntable, variance, workers, scheduler, split, time_, seed, variant, view, quiet,
+        )  # fmt: skip
+        return
+    camera = cameras[0] if cameras else None
     output = output or Path(stage.stem + ".exr")
     if output.suffix.lower() != ".exr":
         raise InputError(str(output), "output must be an .exr file (use --png for a display image)")

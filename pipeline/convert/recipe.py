@@ -355,21 +355,24 @@ def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
     return params, name
 
 
-def parse_recipe(path: str | os.PathLike) -> Recipe:
-    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
+def read_toml(path: str | os.PathLike) -> tuple[Path, dict]:
+    """A recipe file's absolute path and its TOML tables; :class:`InputError` if unreadable."""
     path = Path(path).resolve()
     try:
         with open(path, "rb") as handle:
-            data = tomllib.load(handle)
+            return path, tomllib.load(handle)
     except FileNotFoundError:
         raise InputError(str(path), "recipe not found") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(str(path), f"not valid TOML ({exc})") from None
     except OSError as exc:
         raise InputError(str(path), f"cannot read ({exc.strerror})") from None
-    _check_keys(path, data, {"name", "version", "maps", "material", "geometry", "bake"}, "")
+
+
+def name_and_version(path: Path, data: dict, example: str) -> tuple[str, str]:
+    """A recipe's ``name`` (a USD identifier) and ``version`` (default ``"1.0"``), checked."""
     if "name" not in data:
-        raise _fail(path, "name", 'missing (the asset\'s name, e.g. name = "eye_feather")')
+        raise _fail(path, "name", f'missing (the asset\'s name, e.g. name = "{example}")')
     name = data["name"]
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise _fail(
@@ -378,6 +381,14 @@ def parse_recipe(path: str | os.PathLike) -> Recipe:
     version = data.get("version", "1.0")
     if not isinstance(version, str):
         raise _fail(path, "version", f"expected a string, got {version!r}")
+    return name, version
+
+
+def parse_recipe(path: str | os.PathLike) -> Recipe:
+    """Read and check a recipe; raises :class:`InputError` naming the file and key."""
+    path, data = read_toml(path)
+    _check_keys(path, data, {"name", "version", "maps", "material", "geometry", "bake"}, "")
+    name, version = name_and_version(path, data, "eye_feather")
     maps_table = data.get("maps")
     if not isinstance(maps_table, dict):
         raise _fail(path, "maps", "missing table [maps] naming the six maps")

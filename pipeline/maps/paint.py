@@ -1,8 +1,8 @@
 """Procedural scale-C maps (paper §3.3) for the feather kinds Pavonine ships.
 
 The paper's own map images are not available (MODEL-NOTES, "Maps"), so Pavonine paints its
-own: an eye feather of the peacock's train with its ocellus, a blue body feather and a yellow
-covert. Each kind yields the six maps of §3.3 as float arrays in [0, 1], ``[row, column]`` with
+own: an eye feather of the peacock's train with its ocellus, a blue body feather, a yellow
+covert and a fishtail (T-shaped) feather from the edge of the train. Each kind yields the six maps of §3.3 as float arrays in [0, 1], ``[row, column]`` with
 row 0 at the top (the feather's apex); see ``docs/pipeline.md`` for every encoding:
 
 =============  ==============================================================================
@@ -332,6 +332,47 @@ def _yellow(cv: _Canvas) -> dict[str, np.ndarray]:
     return _contour_feather(cv, half_width, 32.0, 0.009, 0.18, 0.25)
 
 
+def _fishtail(cv: _Canvas) -> dict[str, np.ndarray]:
+    """Fishtail (T-shaped) train feather from the fan's edge: a narrow vane along a long rachis
+    that opens at the tip into two lobes with a notch between them, and no ocellus.
+
+    Classes from the eye feather's material (Table 1): 1 (green-gold) on the vane, 2 (gold) and
+    3 (bronze) along the lobes' outer rims, as on the metallic green-bronze fishtails of the
+    train's sides (paper §2.1 names the train's colours; the lobes carry no eye).
+    """
+    x, y = cv.x, cv.y
+    lobe_half = 0.47 * cv.aspect  # lobe tips almost reach the image edges
+    edge_noise = cv.noise(0.04)
+    opening = _smoothstep(0.52, 0.80, y)  # the vane opens into the T
+    half_width = 0.03 + 0.03 * np.clip(y / 0.5, 0.0, 1.0) + (lobe_half - 0.06) * opening**1.4
+    across = np.clip(np.abs(x) / lobe_half, 0.0, 1.0)
+    top = 0.80 + 0.17 * across**0.8  # the notch: low in the middle, the lobes reach the top
+    signed = np.minimum(half_width - np.abs(x), top - y) + 0.004 * edge_noise
+    signed = np.minimum(signed, np.minimum(y - 0.004, 0.996 - y))
+    solid = cv.coverage(signed)
+
+    wobble = 0.3 * cv.noise(0.06)
+    barb_angle = 36.0 + 44.0 * _smoothstep(0.45, 0.85, y)  # lobe barbs run almost across
+    ridge, fade = _straight_barbs(cv, barb_angle, 0.008, wobble)
+    ridge = _filtered(ridge, fade)
+    loose = 1.0 - _smoothstep(0.25, 0.45, y)  # loose barbs low on the shaft
+    alpha = _fringe(cv, ridge, solid, 0.02 + 0.04 * loose)
+
+    rim = np.clip(top - y, 0.0, None) + 0.006 * cv.noise(0.03)
+    klass = np.where(y > 0.30, 1, 0)
+    klass = np.where((opening > 0.3) & (rim < 0.06), 2, klass)
+    klass = np.where((opening > 0.3) & (rim < 0.025) & (across > 0.35), 3, klass)
+    klass = np.where(solid > 0, klass, 0)
+
+    gradation = np.clip(_smoothstep(0.2, 0.95, y) + 0.05 * cv.noise(0.08), 0.0, 1.0)
+    angle = _barbule_angle(cv, 33.0, 6.0, cv.noise(0.06), 0.8)  # rachis_length of its recipe
+    grain = cv.noise(0.012)
+    displacement = solid * np.clip(0.76 * ridge + 0.14 + 0.05 * grain, 0.0, 1.0)
+    melanin = _melanin_fade(cv, solid, 0.04, 0.2, cv.noise(0.05)) * (1.0 - 0.5 * loose)
+    maps = (alpha, ocellar_grey(klass), gradation, angle, displacement, melanin)
+    return dict(zip(MAP_NAMES, maps, strict=True))
+
+
 @dataclass(frozen=True)
 class FeatherKind:
     """A shipped feather kind: width/height of its maps and the painter."""
@@ -346,6 +387,9 @@ KINDS: dict[str, FeatherKind] = {
     "eye": FeatherKind("eye", 0.5, _eye, "train eye feather with its ocellus (6 classes)"),
     "blue": FeatherKind("blue", 0.72, _blue, "blue body feather (one class)"),
     "yellow": FeatherKind("yellow", 0.36, _yellow, "yellow covert feather (one class)"),
+    "fishtail": FeatherKind(
+        "fishtail", 0.42, _fishtail, "fishtail (T-shaped) train-edge feather, no ocellus"
+    ),
 }
 
 

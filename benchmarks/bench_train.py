@@ -1,0 +1,111 @@
+"""The whole train against one feather: render seconds and peak memory, in the same run.
+
+Renders ``assets/scenes/peacock_train.usda`` (192 feathers through one PointInstancer, four
+prototypes at their medium LOD) and the single eye feather (``eye_feather_sun.usda``, its high
+LOD) at the same size and samples, each in a fresh process (so each peak resident set is its
+own): a 1-spp warm-up that compiles the kernels, then the timed render. Prints seconds, peak
+RSS and the ratios (targets: memory <= 1.5x, time <= 3x the single feather), plus the triangles
+the train would hold as plain meshes, to show what instancing saves.
+
+Usage: python benchmarks/bench_train.py [--resolution 1024x768] [--spp 64]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+SCENES = Path(__file__).parents[1] / "assets" / "scenes"
+
+
+def one(scene: str, resolution: tuple[int, int], spp: int) -> dict:
+    """Run in the child: warm up, render, report seconds and peak RSS."""
+    from pavonine.render.api import render_stage
+    from pavonine.render.diagnostics import StageWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        render_stage(scene, spp=1, resolution=resolution, progress=False)
+        start = time.perf_counter()
+        result = render_stage(scene, spp=spp, resolution=resolution, progress=False)
+        seconds = time.perf_counter() - start
+    peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return {"seconds": seconds, "peak_mib": peak_kib / 1024, "passes": result.metadata["passes"]}
+
+
+def triangles(scene: Path) -> tuple[int, int]:
+    """(triangles held by Mitsuba, triangles if every instance were its own mesh)."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(scene))
+    held = flat = 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
+        if prim.IsA(UsdGeom.PointInstancer):
+            instancer = UsdGeom.PointInstancer(prim)
+            counts = [0] * len(instancer.GetPrototypesRel().GetTargets())
+            for i, target in enumerate(instancer.GetPrototypesRel().GetTargets()):
+                for child in Usd.PrimRange(stage.GetPrimAtPath(target)):
+                    if child.IsA(UsdGeom.Mesh):
+                        counts[i] += len(UsdGeom.Mesh(child).GetFaceVertexCountsAttr().Get())
+            held += sum(counts)
+            flat += sum(counts[k] for k in instancer.GetProtoIndicesAttr().Get())
+        elif prim.IsA(UsdGeom.Mesh) and not _under_instancer(prim):
+            n = len(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get())
+            held += n
+            flat += n
+    return held, flat
+
+
+def _under_instancer(prim) -> bool:
+    from pxr import UsdGeom
+
+    parent = prim.GetParent()
+    while parent:
+        if parent.IsA(UsdGeom.PointInstancer):
+            return True
+        parent = parent.GetParent()
+    return False
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--resolution", default="1024x768")
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--one", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    size = tuple(int(v) for v in args.resolution.split("x"))
+    if args.one:
+        print(json.dumps(one(args.one, size, args.spp)))
+        return
+    results = {}
+    for name in ("eye_feather_sun", "peacock_train"):
+        scene = SCENES / f"{name}.usda"
+        done = subprocess.run(
+            [sys.executable, __file__, "--one", str(scene), "--resolution", args.resolution,
+             "--spp", str(args.spp)],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        results[name] = json.loads(done.stdout.strip().splitlines()[-1])
+        held, flat = triangles(scene)
+        results[name].update(triangles=held, flat_triangles=flat)
+    eye, train = results["eye_feather_sun"], results["peacock_train"]
+    for name, r in results.items():
+        print(
+            f"{name:<16} {args.resolution} @ {args.spp} spp: {r['seconds']:6.1f} s, peak RSS "
+            f"{r['peak_mib']:6.0f} MiB, {r['triangles']:,} triangles held "
+            f"({r['flat_triangles']:,} as plain meshes)"
+        )
+    print(
+        f"train / single feather: time {train['seconds'] / eye['seconds']:.2f}x (target <= 3), "
+        f"memory {train['peak_mib'] / eye['peak_mib']:.2f}x (target <= 1.5)"
+    )
+
+
+if __name__ == "__main__":
+    main()

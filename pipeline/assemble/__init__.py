@@ -1,0 +1,1 @@
+"""Assemblies of feather components: the displaying peacock train (recipe, fan layout, USD)."""
