@@ -193,7 +193,7 @@ def test_vane_follows_the_silhouette(asset, workdir):
 def test_pavonine_validate_and_usd_validation_pass_clean(asset):
     result = run("validate", str(asset))
     assert result.exit_code == 0, result.output
-    assert result.output.strip() == ""
+    assert result.output.strip() == "1 file, no findings"
     from pxr import Usd, UsdValidation
 
     stage = Usd.Stage.Open(str(asset))

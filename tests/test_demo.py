@@ -12,7 +12,7 @@ pytestmark = pytest.mark.render
 def test_demo_paints_converts_and_renders(tmp_path):
     out = tmp_path / "demo"
     result = CliRunner().invoke(
-        cli, ["demo", str(out), "--size", "256", "--spp", "4", "--resolution", "48x72"]
+        cli, ["demo", "-o", str(out), "--size", "256", "--spp", "4", "--resolution", "48x72"]
     )
     assert result.exit_code == 0, result.output
     for name in (
@@ -40,5 +40,5 @@ def test_demo_paints_converts_and_renders(tmp_path):
 
 
 def test_demo_rejects_a_bad_resolution(tmp_path):
-    result = CliRunner().invoke(cli, ["demo", str(tmp_path / "d"), "--resolution", "wide"])
+    result = CliRunner().invoke(cli, ["demo", "-o", str(tmp_path / "d"), "--resolution", "wide"])
     assert result.exit_code == 2 and "--resolution" in result.output

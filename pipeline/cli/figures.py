@@ -6,16 +6,41 @@ from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    display_options,
+    emit_json,
+    json_option,
+    output_option,
+    progress_bar,
+    say,
+)
 from pavonine.pipeline.errors import atomic_path, one_line_errors
+
+DEFAULT_OUTPUT = Path("out/figures")
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["files"],
+    "properties": {
+        "files": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "the PNG files written, in order",
+        }
+    },
+}
 
 
 @click.command()
-@click.argument("outdir", type=click.Path(file_okay=False, path_type=Path))
+@output_option(folder=True, default=DEFAULT_OUTPUT, help="Folder for the figures.")
+@json_option(JSON_SCHEMA)
+@display_options
 @one_line_errors
-def figures(outdir: Path) -> None:
-    """Write analogues of Figures 5 (yellow, blue), 7, 10 and a Table 1 swatch chart to OUTDIR."""
-    from rich.progress import Progress
+def figures(output: Path, json_target: str | None, display) -> None:
+    """Write analogues of Figures 5 (yellow, blue), 7, 10 and a Table 1 swatch chart.
 
+    Colours are display-referred through the display transform (--ocio-config, --view, …).
+    """
     from pavonine.materials import plots
     from pavonine.materials.parameters import preset
 
@@ -29,10 +54,13 @@ def figures(outdir: Path) -> None:
         ("fig10_crescent.png", plots.figure10),
         ("table1_swatches.png", lambda p: plots.table1_swatches(p, preset("paper-table1"))),
     ]
-    with Progress(transient=True) as progress:
+    written = []
+    with progress_bar() as progress:
         task = progress.add_task("figures", total=len(jobs))
         for name, make in jobs:
-            with atomic_path(outdir / name) as tmp:
+            with atomic_path(output / name) as tmp:
                 make(tmp)
             progress.advance(task)
-            click.echo(f"wrote {outdir / name}")
+            written.append(str(output / name))
+            say(f"wrote {output / name}")
+    emit_json(json_target, {"files": written})
