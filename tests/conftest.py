@@ -36,16 +36,32 @@ def scalar_centre(restore_variant):
     return render
 
 
-def pytest_collection_modifyitems(config, items):
-    """Without a libLLVM >= 16, Mitsuba runs its scalar fallback, far too slow for the render
-    tests: they skip, saying what to install (``.ci/setup`` installs it as root)."""
+def missing_system_tools() -> dict[str, str]:
+    """Marker → why its tests cannot run here (a system library is missing)."""
     from pavonine.backend import MIN_LLVM_MAJOR, find_libllvm
 
+    missing = {}
     if os.environ.get("PAVONINE_VARIANT", "").startswith("scalar") or find_libllvm() is None:
-        reason = (
-            f"needs a shared libLLVM >= {MIN_LLVM_MAJOR} for Mitsuba's llvm variants "
-            "(Debian: apt-get install libllvm19; .ci/setup does it as root)"
+        missing["render"] = (
+            f"needs a shared libLLVM >= {MIN_LLVM_MAJOR} for Mitsuba's llvm variants, the scalar "
+            "fallback is too slow for the suite (Debian: apt-get install libllvm19; .ci/setup "
+            "does it as root)"
         )
-        for item in items:
-            if "render" in item.keywords:
+    try:
+        import pymeshlab  # noqa: F401
+    except ImportError as exc:
+        missing["convert"] = (
+            f"pymeshlab cannot load ({' '.join(str(exc).split())}; Debian: apt-get install "
+            "libgl1 libgomp1; .ci/setup does it as root)"
+        )
+    return missing
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``render`` or ``convert`` skip, saying what to install, when the system
+    library they need is missing."""
+    missing = missing_system_tools()
+    for item in items:
+        for marker, reason in missing.items():
+            if marker in item.keywords:
                 item.add_marker(pytest.mark.skip(reason=reason))

@@ -216,8 +216,15 @@ def test_every_reporting_command_has_json_with_a_schema(path):
     assert path in EXAMPLES, f"add an example invocation of {' '.join(path)} to EXAMPLES"
 
 
-@pytest.mark.render
-@pytest.mark.parametrize("path", sorted(EXAMPLES), ids=[" ".join(p) for p in sorted(EXAMPLES)])
+#: Examples that build meshes (pymeshlab) and render (Mitsuba llvm) skip without those libraries.
+NEEDS = {("convert",): ["convert"], ("demo",): ["convert", "render"], ("render",): ["render"]}
+JSON_CASES = [
+    pytest.param(p, id=" ".join(p), marks=[getattr(pytest.mark, m) for m in NEEDS.get(p, [])])
+    for p in sorted(EXAMPLES)
+]
+
+
+@pytest.mark.parametrize("path", JSON_CASES)
 def test_json_to_stdout_is_the_documented_report_and_nothing_else(path, tmp_path, monkeypatch):
     make_args, exit_codes = EXAMPLES[path]
     monkeypatch.chdir(tmp_path)

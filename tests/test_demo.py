@@ -6,7 +6,7 @@ from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
 
-pytestmark = pytest.mark.render
+pytestmark = [pytest.mark.render, pytest.mark.convert]
 
 
 def test_demo_paints_converts_and_renders(tmp_path):

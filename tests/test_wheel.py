@@ -22,7 +22,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.render
+pytestmark = [pytest.mark.render, pytest.mark.convert]
 
 
 def run(*args, cwd: Path, env: dict | None = None, timeout: int = 600):

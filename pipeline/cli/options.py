@@ -76,6 +76,22 @@ class MissingExtra(click.ClickException):
         )
 
 
+#: System library a wheel loads → the Debian package that has it (named in errors).
+DEBIAN_PACKAGE_OF_LIBRARY = {"libGL.so.1": "libgl1", "libgomp.so.1": "libgomp1"}
+
+
+class MissingSystemLibrary(click.ClickException):
+    """An installed module cannot load a system library (one line, exit 2)."""
+
+    exit_code = 2
+
+    def __init__(self, command: str, module: str, error: ImportError):
+        message = " ".join(str(error).split())
+        package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
+        hint = f" (Debian: apt-get install {package})" if package else ""
+        super().__init__(f"{command}: {module} cannot load: {message}{hint}")
+
+
 def importable(module: str) -> bool:
     """``module`` can be imported (without importing it)."""
     try:
@@ -85,14 +101,20 @@ def importable(module: str) -> bool:
 
 
 def requires(*modules: str) -> Callable[[F], F]:
-    """Check before the command runs (so it writes nothing) that ``modules`` are installed."""
+    """Check before the command runs (so it writes nothing) that ``modules`` are installed and
+    load (a wheel can lack a system library, such as pymeshlab's libGL)."""
 
     def decorate(func: F) -> F:
         @functools.wraps(func)
         def wrapper(*args, **kwargs):
+            command = click.get_current_context().command_path
             for module in modules:
                 if not importable(module):
-                    raise MissingExtra(click.get_current_context().command_path, module)
+                    raise MissingExtra(command, module)
+                try:
+                    importlib.import_module(module)
+                except ImportError as exc:
+                    raise MissingSystemLibrary(command, module, exc) from None
             return func(*args, **kwargs)
 
         wrapper.pavonine_requires = modules  # type: ignore[attr-defined]  (for docs/cli.md)
