@@ -263,7 +263,7 @@ def load_config(config: str):
 
     try:
         return ocio.Config.CreateFromFile(config)
-    except ocio.Exception as exc:
+    except Exception as exc:  # ocio.Exception, ocio.ExceptionMissingFile (not a subclass)
         message = " ".join(str(exc).split())
         raise DisplayError(
             "--ocio-config", f"cannot load OCIO config {config!r}: {message}"

@@ -1,8 +1,47 @@
-"""Shared pytest fixtures."""
+"""Shared pytest fixtures, and skips for tests whose system libraries are missing."""
 
+import importlib.abc
+import importlib.util
 import os
+import subprocess
+import sys
 
 import pytest
+
+
+def _drjit_load_error() -> str | None:
+    """Why Dr.Jit (so Mitsuba) cannot load here, or None. Checked in a child process: importing
+    Dr.Jit here, before ``pavonine.backend`` has pointed it at a libLLVM, would be too early."""
+    if importlib.util.find_spec("drjit") is None:
+        return None  # not installed: tests use pytest.importorskip("mitsuba")
+    probe = "import drjit"
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    if result.returncode == 0:
+        return None
+    lines = [line for line in result.stderr.splitlines() if "Error" in line]
+    return lines[0].strip() if lines else result.stderr.strip()[-200:]
+
+
+class _Unloadable(importlib.abc.MetaPathFinder):
+    """Turns ``import mitsuba``/``import drjit`` into ModuleNotFoundError with the reason, so
+    ``pytest.importorskip("mitsuba")`` skips instead of crashing collection."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in ("drjit", "mitsuba"):
+            raise ModuleNotFoundError(self.reason, name=name)
+        return None
+
+
+DRJIT_ERROR = _drjit_load_error()
+if DRJIT_ERROR is not None:
+    DRJIT_REASON = (
+        f"Dr.Jit cannot load ({DRJIT_ERROR}; Debian: apt-get install libatomic1; "
+        ".ci/setup does it as root)"
+    )
+    sys.meta_path.insert(0, _Unloadable(DRJIT_REASON))
 
 
 @pytest.fixture
@@ -41,7 +80,9 @@ def missing_system_tools() -> dict[str, str]:
     from pavonine.backend import MIN_LLVM_MAJOR, find_libllvm
 
     missing = {}
-    if os.environ.get("PAVONINE_VARIANT", "").startswith("scalar") or find_libllvm() is None:
+    if DRJIT_ERROR is not None:
+        missing["render"] = DRJIT_REASON
+    elif os.environ.get("PAVONINE_VARIANT", "").startswith("scalar") or find_libllvm() is None:
         missing["render"] = (
             f"needs a shared libLLVM >= {MIN_LLVM_MAJOR} for Mitsuba's llvm variants, the scalar "
             "fallback is too slow for the suite (Debian: apt-get install libllvm19; .ci/setup "

@@ -337,6 +337,25 @@ def run_without_extras(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     )
 
 
+def test_base_install_has_optics_and_schema(tmp_path):
+    """``pip install pavonine``: spectra, maps and validate work without Mitsuba or OCIO."""
+    spectra = run_without_extras("spectra", "--preset", "blue", "-o", "s", cwd=tmp_path)
+    assert spectra.returncode == 0, spectra.stderr
+    assert (tmp_path / "s" / "spectra_blue.png").is_file()
+    report = run_without_extras("spectra", "--preset", "blue", "--json", "-", cwd=tmp_path)
+    with_extras = invoke("spectra", "--preset", "blue", "--json", "-")
+    assert json.loads(report.stdout)["spectra"] == json.loads(with_extras.stdout)["spectra"]
+    valid = run_without_extras(
+        "validate", str(DATA / "schema" / "minimal_feather.usda"), cwd=tmp_path
+    )
+    assert valid.returncode == 0 and valid.stdout == "1 file, no findings\n", valid.stderr
+    maps = run_without_extras("maps", "blue", "-o", "m", "--size", "16", cwd=tmp_path)
+    assert maps.returncode == 0 and (tmp_path / "m" / "alpha.png").is_file(), maps.stderr
+    doctor = run_without_extras("doctor", "--json", "-", cwd=tmp_path)
+    info = json.loads(doctor.stdout)
+    assert info["extras"] == {"convert": False, "render": False} and info["variant"] is None
+
+
 @pytest.mark.parametrize(
     ("args", "extra"),
     [

@@ -77,7 +77,19 @@ class MissingExtra(click.ClickException):
 
 
 #: System library a wheel loads → the Debian package that has it (named in errors).
-DEBIAN_PACKAGE_OF_LIBRARY = {"libGL.so.1": "libgl1", "libgomp.so.1": "libgomp1"}
+DEBIAN_PACKAGE_OF_LIBRARY = {
+    "libGL.so.1": "libgl1",
+    "libgomp.so.1": "libgomp1",
+    "libatomic.so.1": "libatomic1",
+}
+
+
+def load_error(error: BaseException) -> str:
+    """The first ImportError in ``error``'s chain (Dr.Jit hides it behind a NameError), one line."""
+    seen = error
+    while seen is not None and not isinstance(seen, ImportError):
+        seen = seen.__context__
+    return " ".join(str(seen or error).split())
 
 
 class MissingSystemLibrary(click.ClickException):
@@ -85,8 +97,8 @@ class MissingSystemLibrary(click.ClickException):
 
     exit_code = 2
 
-    def __init__(self, command: str, module: str, error: ImportError):
-        message = " ".join(str(error).split())
+    def __init__(self, command: str, module: str, error: BaseException):
+        message = load_error(error)
         package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
         hint = f" (Debian: apt-get install {package})" if package else ""
         super().__init__(f"{command}: {module} cannot load: {message}{hint}")
@@ -113,7 +125,7 @@ def requires(*modules: str) -> Callable[[F], F]:
                     raise MissingExtra(command, module)
                 try:
                     importlib.import_module(module)
-                except ImportError as exc:
+                except Exception as exc:  # a missing .so: ImportError, or worse from Dr.Jit
                     raise MissingSystemLibrary(command, module, exc) from None
             return func(*args, **kwargs)
 
@@ -217,14 +229,34 @@ def show_progress() -> bool:
     return not quiet() and sys.stderr.isatty()
 
 
+class _NoProgress:
+    """What :func:`progress_bar` gives when bars are hidden: the calls commands make, doing nothing
+    (a disabled rich bar can still print a blank line on some rich versions)."""
+
+    def __enter__(self) -> _NoProgress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def add_task(self, *args, **kwargs) -> int:
+        return 0
+
+    def advance(self, *args, **kwargs) -> None:
+        return None
+
+    def update(self, *args, **kwargs) -> None:
+        return None
+
+
 def progress_bar(*columns, transient: bool = True):
-    """A rich progress bar on stderr; disabled by ``-q`` and when stderr is not a terminal."""
+    """A rich progress bar on stderr; nothing under ``-q`` or when stderr is not a terminal."""
+    if not show_progress():
+        return _NoProgress()
     from rich.console import Console
     from rich.progress import Progress
 
-    return Progress(
-        *columns, console=Console(stderr=True), transient=transient, disable=not show_progress()
-    )
+    return Progress(*columns, console=Console(stderr=True), transient=transient)
 
 
 # ------------------------------------------------------------------------------------ -o
