@@ -81,7 +81,7 @@ def missing_system_tools() -> dict[str, str]:
 
     missing = {}
     if DRJIT_ERROR is not None:
-        missing["render"] = DRJIT_REASON
+        missing["render"] = missing["mitsuba"] = DRJIT_REASON
     elif os.environ.get("PAVONINE_VARIANT", "").startswith("scalar") or find_libllvm() is None:
         missing["render"] = (
             f"needs a shared libLLVM >= {MIN_LLVM_MAJOR} for Mitsuba's llvm variants, the scalar "
@@ -99,10 +99,26 @@ def missing_system_tools() -> dict[str, str]:
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests marked ``render`` or ``convert`` skip, saying what to install, when the system
-    library they need is missing."""
+    """Tests marked ``render``, ``mitsuba`` or ``convert`` skip, saying what to install, when the
+    system library they need is missing."""
     missing = missing_system_tools()
     for item in items:
         for marker, reason in missing.items():
             if marker in item.keywords:
                 item.add_marker(pytest.mark.skip(reason=reason))
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """When Dr.Jit cannot load, a test that imports Mitsuba anyway is skipped with the reason,
+    not failed (the import raised ModuleNotFoundError through ``_Unloadable``)."""
+    outcome = yield
+    report = outcome.get_result()
+    error = call.excinfo.value if call.excinfo is not None else None
+    if (
+        DRJIT_ERROR is not None
+        and isinstance(error, ModuleNotFoundError)
+        and (error.name or "").split(".")[0] in ("drjit", "mitsuba")
+    ):
+        report.outcome = "skipped"
+        report.longrepr = (str(item.path), item.location[1] or 0, f"Skipped: {DRJIT_REASON}")

@@ -218,6 +218,8 @@ def test_every_reporting_command_has_json_with_a_schema(path):
 
 #: Examples that build meshes (pymeshlab) and render (Mitsuba llvm) skip without those libraries.
 NEEDS = {("convert",): ["convert"], ("demo",): ["convert", "render"], ("render",): ["render"]}
+NEEDS |= {("check-renders",): ["mitsuba"], ("baseline", "update"): ["mitsuba"]}
+NEEDS |= {("doctor",): ["mitsuba"]}
 JSON_CASES = [
     pytest.param(p, id=" ".join(p), marks=[getattr(pytest.mark, m) for m in NEEDS.get(p, [])])
     for p in sorted(EXAMPLES)
@@ -260,6 +262,7 @@ def test_verbosity_reaches_commands_added_later(monkeypatch):
     assert invoke("-v", "probe", "-q").stderr == "info: info line\nwarning: warning line\n"
 
 
+@pytest.mark.mitsuba
 def test_threads_option_sets_drjit_threads(monkeypatch):
     import drjit as dr
 

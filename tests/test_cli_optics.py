@@ -113,6 +113,7 @@ def test_figures(runner, tmp_path):
     ]
 
 
+@pytest.mark.mitsuba
 def test_doctor_reports_variant_and_versions(runner):
     result = runner.invoke(cli, ["doctor", "--json", "-"])
     assert result.exit_code == 0, result.output

@@ -15,6 +15,8 @@ from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.imageio import read_exr
 
+pytestmark = pytest.mark.mitsuba  # the CLI checks that Mitsuba loads first
+
 DATA = Path(__file__).parent / "data" / "render"
 SCENE = Path(__file__).parents[1] / "assets" / "scenes" / "eye_feather_sun.usda"
 
