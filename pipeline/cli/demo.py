@@ -54,6 +54,33 @@ def _shipped(*parts: str) -> Path:
     return path
 
 
+#: What the demo renders when Mitsuba has only its scalar fallback (no libLLVM): about 2 minutes
+#: on 2 cores instead of about 14 hours for the default size.
+SCALAR_FALLBACK = (8, (96, 144))
+
+
+def _fallback_size(spp: int, size: tuple[int, int]) -> tuple[int, tuple[int, int]]:
+    """``spp`` and ``size``, or :data:`SCALAR_FALLBACK` when Mitsuba runs its scalar fallback and
+    the user asked for neither (then says so)."""
+    from click.core import ParameterSource
+
+    from pavonine.backend import select_variant
+
+    ctx = click.get_current_context()
+    defaults = all(
+        ctx.get_parameter_source(name) == ParameterSource.DEFAULT for name in ("spp", "resolution")
+    )
+    if not defaults or not select_variant().variant.startswith("scalar"):
+        return spp, size
+    fallback_spp, fallback_size = SCALAR_FALLBACK
+    log.warning(
+        "no libLLVM: Mitsuba's scalar fallback is slow, so the demo renders %dx%d at %d spp "
+        "(install Debian's libllvm19 for %dx%d at %d spp)",
+        *fallback_size, fallback_spp, *size, spp,
+    )  # fmt: skip
+    return fallback_spp, fallback_size
+
+
 def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
     """Copy the shipped scene to ``target`` with its feather reference pointing at ``asset_root``."""
     from pxr import Sdf
@@ -117,6 +144,7 @@ def demo(
     from pavonine.render.settings import parse_resolution
 
     width, height = parse_resolution(resolution)
+    spp, (width, height) = _fallback_size(spp, (width, height))
     recipe_text = _shipped("recipes", f"{FEATHER}.toml").read_text()
     shipped_scene = _shipped("scenes", f"{SCENE}.usda")
     seconds = {}
