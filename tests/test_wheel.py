@@ -51,13 +51,14 @@ def tracked_copy(target: Path) -> Path:
 
 
 def site_dirs() -> list[str]:
-    """Where this interpreter finds the dependencies (never the checkout itself)."""
-    dirs = []
-    for entry in sys.path:
-        path = Path(entry)
-        if path.name in ("site-packages", "dist-packages") and path.is_dir():
-            if REPO not in path.resolve().parents:
-                dirs.append(str(path.resolve()))
+    """Where this interpreter finds the dependencies: its site-packages folders (the project's
+    ``.venv`` inside the checkout among them). Only their modules are visible through a ``.pth``
+    line, not their ``.pth`` files, so the editable install of the checkout stays out."""
+    dirs = [
+        str(Path(entry).resolve())
+        for entry in sys.path
+        if Path(entry).name in ("site-packages", "dist-packages") and Path(entry).is_dir()
+    ]
     return list(dict.fromkeys(dirs))
 
 
