@@ -22,8 +22,9 @@ lint: $(STAMP)
 	$(BIN)/python -m ruff check .
 	$(BIN)/python -m ruff format --check .
 
+# The environment's bin first: wheels bring command-line tools the tests run (mxvalidate, oiiotool).
 test: lint
-	$(BIN)/python -m pytest
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest
 
 # Re-pin constraints.txt to the versions installed in .venv (after changing a dependency).
 lock: $(STAMP)
