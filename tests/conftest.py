@@ -89,11 +89,15 @@ def missing_system_tools() -> dict[str, str]:
             "does it as root)"
         )
     try:
-        import pymeshlab  # noqa: F401
+        import pymeshlab
+
+        from pavonine.pipeline.cli.options import LOAD_CHECKS
+
+        LOAD_CHECKS["pymeshlab"](pymeshlab)
     except ImportError as exc:
         missing["convert"] = (
             f"pymeshlab cannot load ({' '.join(str(exc).split())}; Debian: apt-get install "
-            "libgl1 libgomp1; .ci/setup does it as root)"
+            "libgl1 libopengl0 libgomp1; .ci/setup does it as root)"
         )
     return missing
 

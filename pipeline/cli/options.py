@@ -81,7 +81,21 @@ DEBIAN_PACKAGE_OF_LIBRARY = {
     "libGL.so.1": "libgl1",
     "libgomp.so.1": "libgomp1",
     "libatomic.so.1": "libatomic1",
+    "libOpenGL.so.0": "libopengl0",
 }
+
+
+def _pymeshlab_filters(module) -> None:
+    """pymeshlab imports without its filter plugins when they cannot load libOpenGL."""
+    if not hasattr(module.MeshSet(), "meshing_decimation_quadric_edge_collapse"):
+        raise ImportError(
+            "pymeshlab's meshing filters did not load (libOpenGL.so.0: cannot open shared object "
+            "file)"
+        )
+
+
+#: Checks beyond importing: module name → a function raising ImportError when it is unusable.
+LOAD_CHECKS: dict[str, Callable[[Any], None]] = {"pymeshlab": _pymeshlab_filters}
 
 
 def load_error(error: BaseException) -> str:
@@ -124,7 +138,8 @@ def requires(*modules: str) -> Callable[[F], F]:
                 if not importable(module):
                     raise MissingExtra(command, module)
                 try:
-                    importlib.import_module(module)
+                    loaded = importlib.import_module(module)
+                    LOAD_CHECKS.get(module, lambda m: None)(loaded)
                 except Exception as exc:  # a missing .so: ImportError, or worse from Dr.Jit
                     raise MissingSystemLibrary(command, module, exc) from None
             return func(*args, **kwargs)
