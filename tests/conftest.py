@@ -81,9 +81,9 @@ def missing_system_tools() -> dict[str, str]:
 
     missing = {}
     if DRJIT_ERROR is not None:
-        missing["render"] = missing["mitsuba"] = DRJIT_REASON
+        missing["render"] = missing["llvm"] = missing["mitsuba"] = DRJIT_REASON
     elif os.environ.get("PAVONINE_VARIANT", "").startswith("scalar") or find_libllvm() is None:
-        missing["render"] = (
+        missing["render"] = missing["llvm"] = (
             f"needs a shared libLLVM >= {MIN_LLVM_MAJOR} for Mitsuba's llvm variants, the scalar "
             "fallback is too slow for the suite (Debian: apt-get install libllvm19; .ci/setup "
             "does it as root)"
@@ -103,8 +103,8 @@ def missing_system_tools() -> dict[str, str]:
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests marked ``render``, ``mitsuba`` or ``convert`` skip, saying what to install, when the
-    system library they need is missing."""
+    """Tests marked ``render``, ``llvm``, ``mitsuba`` or ``convert`` skip, saying what to install,
+    when the system library they need is missing."""
     missing = missing_system_tools()
     for item in items:
         for marker, reason in missing.items():

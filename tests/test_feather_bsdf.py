@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("mitsuba")  # conftest says why when it cannot load
+pytestmark = pytest.mark.llvm  # vectorised calls: Mitsuba's llvm variant
 from pavonine.backend import select_variant
 from pavonine.materials import optics
 from pavonine.materials.brdf import direction

@@ -136,6 +136,7 @@ def demo(
     """
     import time
 
+    from pavonine.backend import BackendWarning
     from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.paint import generate_maps, write_contact_sheet, write_maps
     from pavonine.render.api import render_stage
@@ -144,7 +145,8 @@ def demo(
     from pavonine.render.settings import parse_resolution
 
     width, height = parse_resolution(resolution)
-    spp, (width, height) = _fallback_size(spp, (width, height))
+    with warnings_to_log(BackendWarning):
+        spp, (width, height) = _fallback_size(spp, (width, height))
     recipe_text = _shipped("recipes", f"{FEATHER}.toml").read_text()
     shipped_scene = _shipped("scenes", f"{SCENE}.usda")
     seconds = {}

@@ -118,6 +118,7 @@ def render(
     sun (from the right) and sky, so a bare feather asset renders as it is. Anything the
     renderer cannot render as USD says is named in a warning.
     """
+    from pavonine.backend import BackendWarning
     from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import StageWarning
     from pavonine.render.imageio import check_writable, write_render
@@ -135,7 +136,7 @@ def render(
         if path is not None:
             check_writable(path)
 
-    with warnings_to_log(StageWarning):
+    with warnings_to_log(StageWarning, BackendWarning):
         result = render_stage(
             stage,
             spp=spp,
