@@ -121,6 +121,53 @@ def linear_srgb_to_xyz(linear_rgb: np.ndarray) -> np.ndarray:
 
 def delta_e76(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
     """CIE 1976 colour difference ΔE*ab between two scene-linear Rec.709 colours."""
-    lab_a = xyz_to_lab(linear_srgb_to_xyz(rgb_a))
-    lab_b = xyz_to_lab(linear_srgb_to_xyz(rgb_b))
-    return np.linalg.norm(lab_a - lab_b, axis=-1)
+    return np.linalg.norm(linear_srgb_to_lab(rgb_a) - linear_srgb_to_lab(rgb_b), axis=-1)
+
+
+def delta_e2000(lab_a: np.ndarray, lab_b: np.ndarray) -> np.ndarray:
+    """CIEDE2000 colour difference of two CIE L*a*b* colours (CIE 142-2001; the formulas and
+    test data of Sharma, Wu & Dalal 2005, "The CIEDE2000 color-difference formula",
+    Color Res. Appl. 30(1)), with k_L = k_C = k_H = 1."""
+    lab_a, lab_b = np.asarray(lab_a, dtype=np.float64), np.asarray(lab_b, dtype=np.float64)
+    l1, a1, b1 = lab_a[..., 0], lab_a[..., 1], lab_a[..., 2]
+    l2, a2, b2 = lab_b[..., 0], lab_b[..., 1], lab_b[..., 2]
+    c_mean = 0.5 * (np.hypot(a1, b1) + np.hypot(a2, b2))
+    g = 0.5 * (1.0 - np.sqrt(c_mean**7 / (c_mean**7 + 25.0**7)))  # Eq. 3
+    a1p, a2p = (1.0 + g) * a1, (1.0 + g) * a2
+    c1p, c2p = np.hypot(a1p, b1), np.hypot(a2p, b2)
+    h1p = np.degrees(np.arctan2(b1, a1p)) % 360.0
+    h2p = np.degrees(np.arctan2(b2, a2p)) % 360.0
+    dlp, dcp = l2 - l1, c2p - c1p
+    dh = h2p - h1p
+    dh = np.where(dh > 180.0, dh - 360.0, np.where(dh < -180.0, dh + 360.0, dh))
+    dh = np.where(c1p * c2p == 0.0, 0.0, dh)  # Eq. 10
+    dhp = 2.0 * np.sqrt(c1p * c2p) * np.sin(np.radians(dh) / 2.0)  # Eq. 11
+    lp, cp = 0.5 * (l1 + l2), 0.5 * (c1p + c2p)
+    hsum = h1p + h2p
+    hp = np.where(
+        np.abs(h1p - h2p) <= 180.0,
+        hsum / 2.0,
+        np.where(hsum < 360.0, (hsum + 360.0) / 2.0, (hsum - 360.0) / 2.0),
+    )
+    hp = np.where(c1p * c2p == 0.0, hsum, hp)  # Eq. 14
+    t = (
+        1.0
+        - 0.17 * np.cos(np.radians(hp - 30.0))
+        + 0.24 * np.cos(np.radians(2.0 * hp))
+        + 0.32 * np.cos(np.radians(3.0 * hp + 6.0))
+        - 0.20 * np.cos(np.radians(4.0 * hp - 63.0))
+    )  # Eq. 15
+    d_theta = 30.0 * np.exp(-(((hp - 275.0) / 25.0) ** 2))  # Eq. 16
+    rc = 2.0 * np.sqrt(cp**7 / (cp**7 + 25.0**7))  # Eq. 17
+    sl = 1.0 + 0.015 * (lp - 50.0) ** 2 / np.sqrt(20.0 + (lp - 50.0) ** 2)  # Eq. 18
+    sc = 1.0 + 0.045 * cp  # Eq. 19
+    sh = 1.0 + 0.015 * cp * t  # Eq. 20
+    rt = -np.sin(np.radians(2.0 * d_theta)) * rc  # Eq. 21
+    return np.sqrt(
+        (dlp / sl) ** 2 + (dcp / sc) ** 2 + (dhp / sh) ** 2 + rt * (dcp / sc) * (dhp / sh)
+    )  # Eq. 22
+
+
+def linear_srgb_to_lab(linear_rgb: np.ndarray) -> np.ndarray:
+    """CIE L*a*b* (D65 white with Y = 1) of scene-linear Rec. 709 colours."""
+    return xyz_to_lab(linear_srgb_to_xyz(linear_rgb))

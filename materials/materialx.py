@@ -8,7 +8,9 @@ per ocellar class ``k`` (0…5) and axis the (black, white) ends of layer interv
 (µm) and layer count, plus the scalar optics. Its implementation ``NG_pavonine_feather_surfaceshader``
 uses only MaterialX standard nodes, so any MaterialX renderer shows the feather's dominant hue:
 
-1. ``switch`` picks the class (``ocellar_class``), ``mix`` interpolates black→white by ``gradation``.
+1. The class index is ``round((1 − g)(n − 1))`` of the ocellar map's grey ``g`` (``ocellar``) and the
+   material's class count ``n`` (``class_count``), as the renderer reads the map; ``switch`` picks
+   the class and ``mix`` interpolates black→white by ``gradation``.
 2. Eq. 1 (paper; MODEL-NOTES): ``f = π a / (2 d)``, ``D = d·[n_ml·f + n_0·(1 − f)]`` (µm).
 3. A thin film of index ``n_ml`` on a keratin substrate (n = 1.53, MODEL-NOTES' keratin index at
    long wavelengths) reflects constructively where ``2·n_ml·t = (m + ½)·λ`` (one π phase shift, at
@@ -19,8 +21,11 @@ uses only MaterialX standard nodes, so any MaterialX renderer shows the feather'
 4. ``dielectric_bsdf`` (``thinfilm_thickness``/``thinfilm_ior``, MaterialX 1.39) per axis, mixed
    50/50 (Eq. 7 averaged over the barbule direction ψ), weighted by the structural share (melanin
    map) and layered over an ``oren_nayar_diffuse_bsdf`` in the melanin colour. Roughness is the
-   Beckmann α for a slope standard deviation tan σ, ``α = √2·tan σ`` (σ = crescent / block sigma),
-   used as GGX α (the two lobes match near their peak).
+   Beckmann α for a slope standard deviation tan σ, ``α = √2·tan σ``, used as GGX α (the two lobes
+   match near their peak): along the barbule (the BSDF's ``tangent``) from ``block_sigma``, across
+   it from ``crescent_sigma``, as in :mod:`pavonine.materials.brdf`. The barbule's long axis is the
+   ``tangent`` input (the barb direction) turned by ``barbule_angle · 180°`` (the angle map's grey)
+   counter-clockwise about ``normal``; a host bumps ``normal`` with the displacement map.
 
 Layer counts, rod length and the interference mode are carried for renderers that implement the
 full model (``pavonine render``); a single thin film cannot express them, so the graph ignores them.
@@ -51,8 +56,18 @@ def class_input(k: int, axis: str, quantity: str) -> str:
 
 #: Scalar nodedef inputs: name -> (MaterialX type, default, doc).
 SCALAR_INPUTS: dict[str, tuple[str, Any, str]] = {
-    "ocellar_class": ("integer", 0, "Ocellar class index (0-5), from the ocellar map."),
+    "ocellar": (
+        "float",
+        1.0,
+        "Ocellar map grey g: class round((1 - g)(class_count - 1)), white = class 0.",
+    ),
+    "class_count": ("integer", MAX_CLASSES, "Number of ocellar classes of the material (1-6)."),
     "gradation": ("float", 0.0, "0 = black end, 1 = white end of the class parameters."),
+    "barbule_angle": (
+        "float",
+        0.0,
+        "Angle map grey g: barbule long axis at g*180 degrees counter-clockwise from tangent.",
+    ),
     "melanin_index": ("float", 2.0, "Refractive index of the melanin rods (n_ml)."),
     "medium_index": ("float", 1.0, "Refractive index between the rods (n_0)."),
     "crescent_sigma": ("float", 15.0, "Normal spread across the barbule, degrees (Eq 6)."),
@@ -64,10 +79,20 @@ SCALAR_INPUTS: dict[str, tuple[str, Any, str]] = {
     "opacity": ("float", 1.0, "Opacity, from the alpha map."),
 }
 
+#: Geometric nodedef inputs: name -> (default geometric property, doc). Hosts connect ``normal``
+#: to the displacement map's bump and ``tangent`` to the mesh's barb direction.
+GEOMETRIC_INPUTS: dict[str, tuple[str, str]] = {
+    "normal": ("Nworld", "Shading normal (world space)."),
+    "tangent": ("Tworld", "Barb direction (world space), the angle map's zero."),
+}
+#: Inputs a host drives per texel from the maps and the mesh (not derived from the schema).
+PER_TEXEL_INPUTS = ("ocellar", "gradation", "barbule_angle", "structural", "opacity")
 
-def input_values(params, ocellar_class: int = 0, gradation: float = 0.0) -> dict[str, Any]:
+
+def input_values(params, ocellar: float = 1.0, gradation: float = 0.0) -> dict[str, Any]:
     """Nodedef input values derived from a ``FeatherParameters`` (classes beyond 6 are dropped;
-    fewer than 6 repeat the last class so that any ``ocellar_class`` index stays defined)."""
+    fewer than 6 repeat the last class so that every class index stays defined), with the
+    per-texel inputs at the given ocellar grey and gradation (the rest at their defaults)."""
     values: dict[str, Any] = {}
     classes = list(params.classes[:MAX_CLASSES])
     classes += [classes[-1]] * (MAX_CLASSES - len(classes))
@@ -81,8 +106,10 @@ def input_values(params, ocellar_class: int = 0, gradation: float = 0.0) -> dict
                     float(getattr(white, field)),
                 )
     values.update(
-        ocellar_class=int(ocellar_class),
+        ocellar=float(ocellar),
+        class_count=min(len(params.classes), MAX_CLASSES),
         gradation=float(gradation),
+        barbule_angle=0.0,
         melanin_index=float(params.melanin_index),
         medium_index=float(params.medium_index),
         crescent_sigma=float(params.crescent_sigma_deg),
@@ -96,10 +123,23 @@ def input_values(params, ocellar_class: int = 0, gradation: float = 0.0) -> dict
     return values
 
 
+def input_names() -> list[str]:
+    """Every input of the node definition."""
+    classes = [
+        class_input(k, axis, quantity)
+        for k in range(MAX_CLASSES)
+        for axis in AXES
+        for quantity in QUANTITIES
+    ]
+    return [*classes, *SCALAR_INPUTS, *GEOMETRIC_INPUTS]
+
+
 def input_type(name: str) -> str:
     """MaterialX type of a nodedef input."""
     if name in SCALAR_INPUTS:
         return SCALAR_INPUTS[name][0]
+    if name in GEOMETRIC_INPUTS:
+        return "vector3"
     return "vector2"
 
 
@@ -141,8 +181,12 @@ def build_document():
             inp.setValue(int(value))
         else:
             inp.setValue(value)
-        if name in ("rod_length", "interference"):
+        if name in ("rod_length", "interference", "class_count"):
             inp.setIsUniform(True)
+        inp.setDocString(text)
+    for name, (geomprop, text) in GEOMETRIC_INPUTS.items():
+        inp = nodedef.addInput(name, "vector3")
+        inp.setDefaultGeomPropString(geomprop)
         inp.setDocString(text)
 
     graph = doc.addNodeGraph(NODEGRAPH)
@@ -198,7 +242,8 @@ class _Builder:
             alphas.append(
                 self.node("multiply", f"{sigma}_alpha", "float", in1=tan, in2=math.sqrt(2.0))
             )
-        roughness = self.node("combine2", "roughness", "vector2", in1=alphas[0], in2=alphas[1])
+        # Along the barbule (the BSDF's tangent): block spread; across it: crescent spread.
+        roughness = self.node("combine2", "roughness", "vector2", in1=alphas[1], in2=alphas[0])
         n_diff = self.node(
             "subtract",
             "index_contrast",
@@ -206,6 +251,25 @@ class _Builder:
             in1=iface("melanin_index"),
             in2=iface("medium_index"),
         )
+        # Class index round((1 − g)(n − 1)) of the ocellar grey g and class count n.
+        darkness = self.node("subtract", "ocellar_darkness", "float", in1=1.0, in2=iface("ocellar"))
+        count = self.node("convert", "class_count_float", "float", **{"in": iface("class_count")})
+        last = self.node("subtract", "last_class", "float", in1=count, in2=1.0)
+        scaled = self.node("multiply", "class_position", "float", in1=darkness, in2=last)
+        class_index = self.node("round", "class_index", "float", **{"in": scaled})
+        # Barbule long axis: the tangent turned by barbule_angle·180° about the normal.
+        degrees = self.node(
+            "multiply", "barbule_degrees", "float", in1=iface("barbule_angle"), in2=180.0
+        )
+        turned = self.node(
+            "rotate3d",
+            "barbule_turned",
+            "vector3",
+            amount=degrees,
+            axis=iface("normal"),
+            **{"in": iface("tangent")},
+        )
+        barbule = self.node("normalize", "barbule_axis", "vector3", **{"in": turned})
         for axis in AXES:
             ends = {}
             for quantity in ("layer_interval", "rod_radius"):
@@ -213,7 +277,7 @@ class _Builder:
                     "switch",
                     f"{axis}_{quantity}_class",
                     "vector2",
-                    which=iface("ocellar_class"),
+                    which=class_index,
                     **{
                         f"in{k + 1}": iface(class_input(k, axis, quantity))
                         for k in range(MAX_CLASSES)
@@ -256,6 +320,8 @@ class _Builder:
                 roughness=roughness,
                 thinfilm_thickness=thickness,
                 thinfilm_ior=iface("melanin_index"),
+                normal=iface("normal"),
+                tangent=barbule,
                 scatter_mode="R",
             )
         # Eq. 7 averaged over ψ: ⟨cos²ψ⟩ = ⟨sin²ψ⟩ = ½
@@ -266,7 +332,11 @@ class _Builder:
             "multiply", "structural_share", "BSDF", in1=structural, in2=iface("structural")
         )
         melanin = self.node(
-            "oren_nayar_diffuse_bsdf", "melanin", "BSDF", color=iface("melanin_color")
+            "oren_nayar_diffuse_bsdf",
+            "melanin",
+            "BSDF",
+            color=iface("melanin_color"),
+            normal=iface("normal"),
         )
         layered = self.node("layer", "feather", "BSDF", top=weighted, base=melanin)
         self.node("surface", "surface", "surfaceshader", bsdf=layered, opacity=iface("opacity"))
@@ -291,6 +361,8 @@ _ARITHMETIC = {
     "mix": lambda i: i["fg"] * i["mix"] + i["bg"] * (1.0 - i["mix"]),
     "extract": lambda i: i["in"][int(i["index"])],
     "switch": lambda i: i[f"in{int(i['which']) + 1}"],
+    "round": lambda i: float(math.floor(i["in"] + 0.5)),
+    "convert": lambda i: float(i["in"]),
     "tan": lambda i: math.tan(i["in"]),
     "combine2": lambda i: (i["in1"], i["in2"]),
 }
@@ -350,20 +422,20 @@ def thin_film_reflectance(
 
 
 def film_thickness_nm(
-    params, axis: str, ocellar_class: int = 0, gradation: float = 0.0, doc=None
+    params, axis: str, ocellar: float = 1.0, gradation: float = 0.0, doc=None
 ) -> float:
-    """``thinfilm_thickness`` the shipped graph computes for one axis of a class (nm)."""
+    """``thinfilm_thickness`` the shipped graph computes for one axis at an ocellar grey (nm)."""
     import MaterialX as mx
 
     if doc is None:
         doc = mx.createDocument()
         mx.readFromXmlFile(doc, str(MTLX_PATH))
-    values = input_values(params, ocellar_class=ocellar_class, gradation=gradation)
+    values = input_values(params, ocellar=ocellar, gradation=gradation)
     return float(evaluate_node(doc, f"{axis}_film_thickness", values))
 
 
 def graph_reflectance(
-    params, wavelength_nm, ocellar_class: int = 0, gradation: float = 0.0, doc=None
+    params, wavelength_nm, ocellar: float = 1.0, gradation: float = 0.0, doc=None
 ):
     """Normal-incidence reflectance of the graph's structural lobes (long and short film, ½ each),
     as a generic MaterialX renderer would show it before roughness and the melanin base."""
@@ -372,7 +444,7 @@ def graph_reflectance(
         0.5
         * thin_film_reflectance(
             wavelength_nm,
-            film_thickness_nm(params, axis, ocellar_class, gradation, doc),
+            film_thickness_nm(params, axis, ocellar, gradation, doc),
             n_film,
             KERATIN_INDEX,
         )

@@ -1,8 +1,9 @@
 """Pavonine's reference renderer: a Hydra-style scene delegate from USD stages to Mitsuba 3.
 
-One translator module per USD prim kind (``mesh``, ``instancing``, ``camera``, ``lights``,
-``materials``, ``settings``), a ``delegate`` that walks the stage and hands each prim to its
-translator, and ``api.render_stage`` that renders the result progressively. Nothing here imports
+One translator module per USD prim kind (``mesh``, ``shapes`` for implicit prims, ``subdivision``,
+``skel``, ``curves``, ``instancing``, ``camera``, ``lights``, ``materials``, ``settings``; ``primvars``,
+``attributes`` and ``facing`` serve them), a ``delegate`` that walks the stage and hands each prim to
+its translator, and ``api.render_stage`` that renders the result progressively. Nothing here imports
 Mitsuba at module import time except through :func:`pavonine.backend.select_variant`.
 """
 

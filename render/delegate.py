@@ -16,7 +16,17 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.pipeline.errors import InputError
-from pavonine.render import instancing, lights, materials, mesh
+from pavonine.render import (
+    curves,
+    facing,
+    instancing,
+    lights,
+    materials,
+    mesh,
+    shapes,
+    skel,
+    subdivision,
+)
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.xform import TransformCache
 
@@ -31,6 +41,9 @@ STRUCTURAL = {
     "RenderPass",
     "Shader",
     "Backdrop",
+    "Skeleton",  # UsdSkel: deforms the prims bound to it (render/skel.py)
+    "SkelAnimation",
+    "BlendShape",
 }
 # prims whose children are not geometry either (shading networks, render settings)
 PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
@@ -89,10 +102,12 @@ class StageDelegate:
         self._bsdfs: dict[tuple[str, bool], object] = {}
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
+        self.skinning = skel.Skinning()
 
     def sync(self) -> SyncedScene:
         """Walk the stage and translate every renderable prim."""
         light_prims: list[Usd.Prim] = []
+        self.skinning = skel.skin_stage(self.stage, self.time, self.xforms, self.diag)
         it = iter(Usd.PrimRange(self.stage.GetPseudoRoot()))
         for prim in it:
             if prim.IsPseudoRoot():
@@ -104,9 +119,16 @@ class StageDelegate:
             if prim.IsInstance():
                 instancing.native_instance(prim, self.xforms.world(prim), self.table, self._subtree)
                 it.PruneChildren()
-            elif kind == "Mesh":
-                shapes, boxes = self._mesh(prim, self.xforms.world(prim), world=True)
-                for i, shape in enumerate(shapes):
+            elif kind == "Mesh" or shapes.is_implicit(prim):
+                world = self.skinning.transforms.get(str(prim.GetPath()))
+                world = self.xforms.world(prim) if world is None else world
+                built, boxes = self._gprim(prim, world, world=True)
+                for i, shape in enumerate(built):
+                    self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
+                self._bounds.extend(boxes)
+            elif kind == "BasisCurves":
+                built, boxes = self._curves(prim, self.xforms.world(prim))
+                for i, shape in enumerate(built):
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
             elif kind == "PointInstancer":
@@ -163,36 +185,61 @@ class StageDelegate:
             return False
         return imageable.ComputePurpose() not in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
 
-    def _mesh(
+    def _surface(self, prim: Usd.Prim) -> mesh.Surface | None:
+        """The gprim as polygons: a mesh as authored (subdivided), or an implicit prim tessellated."""
+        if prim.GetTypeName() == "Mesh":
+            surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag)
+            if surface is None:
+                return None
+            skinned = self.skinning.points.get(str(prim.GetPath()))
+            if skinned is not None:
+                surface = mesh.with_points(surface, skinned, self.diag)
+            return subdivision.refine_surface(surface, self.time, self.diag)
+        return shapes.implicit_surface(prim, self.time, self.diag)
+
+    def _gprim(
         self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool
     ) -> tuple[list, list[tuple[np.ndarray, np.ndarray]]]:
         """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space."""
-        usd_mesh = UsdGeom.Mesh(prim)
-        topology = mesh.read_topology(usd_mesh, self.time, self.diag)
-        if topology is None:
+        surface = self._surface(prim)
+        if surface is None:
             return [], []
-        double_sided = bool(usd_mesh.GetDoubleSidedAttr().Get(self.time))
         built = []
         for index, (material, mask) in enumerate(
-            mesh.material_groups(usd_mesh, topology, self.time, self.diag)
+            mesh.material_groups(surface, self.time, self.diag)
         ):
             spec = self._material(material, prim)
+            uv_primvar, attributes = spec.primvars_for(prim)
             triangles = mesh.build_triangle_mesh(
-                usd_mesh,
-                topology,
+                surface,
                 mask,
                 matrix_usd,
-                spec.uv_primvar,
-                spec.attributes,
-                self.time,
+                uv_primvar,
+                attributes,
                 self.diag,
                 f"{prim.GetPath()}#{index}",
+                all_primvars=not spec.is_feather,  # the feather BSDF reads its own attributes only
             )
-            built.append((triangles, self._bsdf(spec, double_sided)))
+            built.append((triangles, self._bsdf(spec, surface.double_sided)))
         emitter = self._mesh_light(prim, sum(t.area() for t, _ in built), world)
-        shapes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
+        meshes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
         self.scene.mesh_count += len(built)
-        return shapes, [t.bounds() for t, _ in built]
+        return meshes, [t.bounds() for t, _ in built]
+
+    def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
+        """A ``BasisCurves`` prim as one Mitsuba curve shape with its bound material."""
+        built = curves.curve_control_points(prim, matrix_usd, self.time, self.diag)
+        if built is None:
+            return [], []
+        kind, control_points = built
+        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
+        spec = self._material(material if material else None, prim)
+        try:
+            shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True))
+        except Exception as exc:
+            self.diag.warn(str(prim.GetPath()), f"Mitsuba rejected the curves ({first_line(exc)})")
+            return [], []
+        return [shape], [curves.bounds_of(control_points)]
 
     def _mesh_light(self, prim: Usd.Prim, world_area: float, world: bool) -> dict | None:
         """A ``MeshLightAPI`` mesh's Mitsuba ``area`` emitter (UsdLux radiance, ``normalize``)."""
@@ -219,7 +266,7 @@ class StageDelegate:
 
     def _subtree(self, root: Usd.Prim, relative_to: Usd.Prim) -> tuple[list, tuple | None]:
         """Meshes under ``root`` (instance proxies included) relative to ``relative_to``."""
-        shapes: list = []
+        meshes: list = []
         boxes: list = []
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies()))
         for prim in it:
@@ -227,12 +274,19 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
-            if kind == "Mesh":
+            if kind == "Mesh" or shapes.is_implicit(prim):
                 matrix = (
                     np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
                 )
-                prim_shapes, prim_boxes = self._mesh(prim, matrix, world=False)
-                shapes.extend(prim_shapes)
+                prim_shapes, prim_boxes = self._gprim(prim, matrix, world=False)
+                meshes.extend(prim_shapes)
+                boxes.extend(prim_boxes)
+            elif kind == "BasisCurves":
+                matrix = (
+                    np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
+                )
+                prim_shapes, prim_boxes = self._curves(prim, matrix)
+                meshes.extend(prim_shapes)
                 boxes.extend(prim_boxes)
             elif kind == "PointInstancer":
                 self.diag.warn(
@@ -252,7 +306,7 @@ class StageDelegate:
             if boxes
             else None
         )
-        return shapes, bounds
+        return meshes, bounds
 
     def _material(
         self, material: UsdShade.Material | None, prim: Usd.Prim
@@ -267,12 +321,17 @@ class StageDelegate:
     def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool):
         import mitsuba as mi
 
-        wrap = double_sided and not spec.two_sided
+        # doubleSided: both sides shade alike; singleSided: back faces culled (render/facing.py)
+        wrap = "both" if double_sided else "front"
+        if spec.two_sided:
+            wrap = "self"  # the BSDF already shades both sides as it should (the feather)
         key = (spec.key, wrap)
         if key not in self._bsdfs:
             bsdf = spec.bsdf
-            if wrap:
-                bsdf = {"type": "twosided", "bsdf": bsdf}
+            if wrap == "both":
+                bsdf = two_sided(bsdf)
+            elif wrap == "front":
+                bsdf = facing.cull_back_faces(bsdf)
             try:
                 self._bsdfs[key] = mi.load_dict(bsdf)
             except Exception as exc:
@@ -282,6 +341,14 @@ class StageDelegate:
                 )
                 self._bsdfs[key] = mi.load_dict(materials.default_material().bsdf)
         return self._bsdfs[key]
+
+
+def two_sided(bsdf: dict) -> dict:
+    """``bsdf`` shading both sides: Mitsuba's ``twosided`` refuses a ``mask`` (it transmits), so
+    a mask keeps its place outside and the BSDF inside it is made two-sided."""
+    if bsdf.get("type") == "mask":
+        return {**bsdf, "bsdf": two_sided(bsdf["bsdf"])}
+    return {"type": "twosided", "bsdf": bsdf}
 
 
 def usd_error_message(exc: object) -> str:

@@ -5,7 +5,9 @@
   (colour maps decoded from sRGB, data maps raw), ``opacity`` < 1 → ``mask``.
 * Materials with the applied API schema ``PavonineFeatherAPI`` → the feather BSDF
   (``pavonine.render.feather_bsdf``); the only other place that knows about feathers is
-  :func:`feather_bsdf`.
+  :func:`feather_bsdf`. With ``PAVONINE_IGNORE_FEATHER_SCHEMA=1`` in the environment they render
+  their UsdPreviewSurface instead, as a viewer that knows nothing of Pavonine would (used to
+  compare the baked preview with the spectral feather).
 
 Every missing or unreadable texture gives one warning naming the shader prim and the file, and the
 shader's ``inputs:fallback`` (or a neutral constant) is used instead.
@@ -23,8 +25,13 @@ from pxr import Sdf, Usd, UsdGeom, UsdShade
 from pavonine.render.diagnostics import Diagnostics
 
 FEATHER_API = "PavonineFeatherAPI"
-FEATHER_UV = "pavonine:featherUV"
-BARB_TANGENT = "pavonine:barbTangent"
+FEATHER_UV = "pavonine_featherUV"
+BARB_TANGENT = "pavonine_barbTangent"
+#: Names the converter gave these primvars before they had to be valid shading-language
+#: identifiers (MaterialX ``geompropvalue``); meshes that carry only these are read through them.
+LEGACY_PRIMVARS = {FEATHER_UV: "pavonine:featherUV", BARB_TANGENT: "pavonine:barbTangent"}
+#: Environment variable: ``1`` renders feather materials through their UsdPreviewSurface.
+IGNORE_FEATHER_SCHEMA = "PAVONINE_IGNORE_FEATHER_SCHEMA"
 DEFAULT_GREY = 0.5
 COLOR_INPUTS = ("diffuseColor", "emissiveColor", "specularColor")
 #: UsdUVTexture outputs → channels of the RGBA texel
@@ -41,6 +48,19 @@ class MaterialSpec:
     attributes: dict[str, str] = field(default_factory=dict)  # primvar → Mitsuba vertex attribute
     two_sided: bool = False  # the BSDF already shades both sides (no ``twosided`` wrapper)
     is_feather: bool = False
+
+    def primvars_for(self, prim: Usd.Prim) -> tuple[str, dict[str, str]]:
+        """``(uv primvar, attributes)`` for one mesh: a primvar the mesh lacks under its current
+        name but carries under its legacy one (:data:`LEGACY_PRIMVARS`) is read by that."""
+        api = UsdGeom.PrimvarsAPI(prim)
+
+        def name(primvar: str) -> str:
+            legacy = LEGACY_PRIMVARS.get(primvar)
+            if legacy and not api.HasPrimvar(primvar) and api.HasPrimvar(legacy):
+                return legacy
+            return primvar
+
+        return name(self.uv_primvar), {name(k): v for k, v in self.attributes.items()}
 
 
 def default_material(display_color: tuple[float, float, float] | None = None) -> MaterialSpec:
@@ -78,7 +98,7 @@ def translate_material(
 ) -> MaterialSpec:
     """The Mitsuba BSDF of a bound USD material (feather, preview surface, or grey fallback)."""
     path = str(material.GetPath())
-    if is_feather_material(material):
+    if is_feather_material(material) and os.environ.get(IGNORE_FEATHER_SCHEMA) != "1":
         return feather_bsdf(material, time, diag)
     shader = _surface_shader(material)
     if shader is None:
@@ -97,9 +117,11 @@ def feather_bsdf(
 ) -> MaterialSpec:
     """The spectral feather BSDF (``pavonine.render.feather_bsdf``) of a ``PavonineFeatherAPI`` material.
 
-    Parameters and the six maps come from ``pavonine.schemas.authoring``; a map file that does not
-    exist gets one warning and the map's neutral value.
+    Parameters and the six maps come from ``pavonine.schemas.authoring``; maps are read through
+    USD's asset resolver (``pavonine.asset_io.local_file``: members of a ``.usdz`` too). A map
+    that cannot be read gets one warning and the map's neutral value.
     """
+    from pavonine.asset_io import local_file
     from pavonine.render import feather_bsdf as plugin
     from pavonine.schemas import authoring
 
@@ -107,7 +129,11 @@ def feather_bsdf(
     params = authoring.read_feather_parameters(material)
     maps = dict(authoring.resolve_maps(material))
     for name, file in list(maps.items()):
-        if file and not os.path.isfile(file):
+        if not file:
+            continue
+        try:
+            maps[name] = local_file(file)
+        except OSError:
             diag.warn(path, f"{name} map {file!r} not found; using the map's neutral value")
             maps[name] = None
     plugin.register()

@@ -1,12 +1,16 @@
 """``UsdGeom.Mesh`` → Mitsuba triangle meshes.
 
-Reads points, ``faceVertexCounts/Indices``, normals and uv primvars of any interpolation
-(constant, uniform, vertex, varying, faceVarying, indexed or not), triangulates polygons as fans,
-splits by ``GeomSubset`` material bindings, and builds one ``mi.Mesh`` per material. When every
-primvar is per-vertex the mesh keeps its shared vertices; otherwise corners are unwelded.
+A gprim becomes a :class:`Surface`: validated polygons (:class:`Topology`), normals and every
+numeric primvar (:mod:`pavonine.render.primvars`). Implicit prims (:mod:`pavonine.render.shapes`),
+subdivision (:mod:`pavonine.render.subdivision`) and skinning (:mod:`pavonine.render.skel`) make or
+change surfaces; this module turns one into ``mi.Mesh`` objects: polygons as fans, split by
+``GeomSubset`` material bindings, one mesh per material. Every non-constant primvar becomes a
+mesh attribute named by :func:`mesh_attribute_name`. When all per-vertex data is ``vertex`` or
+``varying`` the mesh keeps its shared vertices; otherwise corners are unwelded.
 
-Bad data renders what it can: faces that use non-finite points or out-of-range indices are dropped
-with one warning naming the prim; an empty mesh is skipped with a warning.
+Bad data renders what it can: attributes of the wrong type are ignored with a warning naming the
+prim and the attribute (:mod:`pavonine.render.attributes`); faces that use non-finite points or
+out-of-range indices are dropped with one warning; an empty mesh is skipped with a warning.
 """
 
 from __future__ import annotations
@@ -16,7 +20,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
+from pavonine.render import attributes
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.primvars import (
+    PER_VERTEX,
+    Primvar,
+    mesh_attribute_name,
+    per_corner,
+    read_primvars,
+)
 from pavonine.render.xform import (
     flips_handedness,
     normalize,
@@ -25,7 +37,9 @@ from pavonine.render.xform import (
     transform_points,
 )
 
-PER_VERTEX = ("vertex", "varying")
+__all__ = ["Primvar", "Surface", "Topology", "mesh_attribute_name"]
+
+SCHEMES = ("catmullClark", "loop", "bilinear", "none")  # USD's fallback first
 
 
 @dataclass
@@ -33,18 +47,38 @@ class Topology:
     """A mesh's polygons after validation, as triangles over face-vertex corners."""
 
     points: np.ndarray  # (P, 3) float64, object space
+    face_vertex_counts: np.ndarray  # (F,) int64
     face_vertex_indices: np.ndarray  # (C,) int64, one per corner
     triangles: np.ndarray  # (T, 3) corner indices
     triangle_face: np.ndarray  # (T,) polygon index of each triangle
-    face_count: int
+    left_handed: bool = False  # triangles wound clockwise from the polygons' corner order
+
+    @property
+    def face_count(self) -> int:
+        return len(self.face_vertex_counts)
+
+    @property
+    def corner_face(self) -> np.ndarray:
+        """(C,) the polygon of each face-vertex corner."""
+        return np.repeat(np.arange(self.face_count), self.face_vertex_counts)
 
 
 @dataclass
-class Primvar:
-    """A primvar's flattened values with their interpolation."""
+class Surface:
+    """A gprim as polygons with normals and primvars, in object space."""
 
-    values: np.ndarray
-    interpolation: str
+    prim: Usd.Prim
+    topology: Topology
+    normals: Primvar | None = None
+    primvars: dict[str, Primvar] = field(default_factory=dict)
+    double_sided: bool = False
+    scheme: str = "none"  # subdivisionScheme still to apply (``none`` once refined)
+    #: authored polygon of each polygon (``None``: the identity); GeomSubsets index authored faces
+    authored_face: np.ndarray | None = None
+
+    @property
+    def where(self) -> str:
+        return str(self.prim.GetPath())
 
 
 @dataclass
@@ -69,33 +103,38 @@ class TriangleMesh:
         )
 
 
-def read_topology(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> Topology | None:
-    """Validated topology; ``None`` (with a warning) when nothing renderable remains."""
-    where = str(mesh.GetPath())
-    points = mesh.GetPointsAttr().Get(time)
-    counts = mesh.GetFaceVertexCountsAttr().Get(time)
-    indices = mesh.GetFaceVertexIndicesAttr().Get(time)
-    if points is None or counts is None or indices is None or len(points) == 0 or len(counts) == 0:
+def make_topology(
+    points: np.ndarray,
+    counts: np.ndarray,
+    indices: np.ndarray,
+    left_handed: bool,
+    where: str,
+    diag: Diagnostics,
+) -> Topology | None:
+    """Validated polygons triangulated as fans; ``None`` (with a warning) if none are renderable."""
+    if len(points) == 0 or len(counts) == 0:
         diag.warn(where, "empty mesh (no points or faces); skipped")
         return None
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    counts = np.asarray(counts, dtype=np.int64)
-    indices = np.asarray(indices, dtype=np.int64)
-    if counts.sum() != len(indices) or np.any(counts < 0):
+    if np.any(counts < 0) or counts.sum() != len(indices):
         diag.warn(
             where,
-            f"faceVertexCounts sum to {counts.sum()} but there are {len(indices)} indices; skipped",
+            f"faceVertexCounts sum to {counts.sum()} but there are {len(indices)} "
+            "faceVertexIndices (or a count is negative); skipped",
         )
         return None
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    polygon = counts >= 3
-    fan = np.where(polygon, counts - 2, 0)
+    fan = np.where(counts >= 3, counts - 2, 0)
     triangle_face = np.repeat(np.arange(len(counts)), fan)
     k = np.arange(len(triangle_face)) - np.repeat(np.cumsum(fan) - fan, fan)
     first = starts[triangle_face]
     triangles = np.stack([first, first + k + 1, first + k + 2], axis=1)
-    if mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded:
+    if left_handed:
         triangles = triangles[:, [0, 2, 1]]
+    if np.any((counts > 0) & (counts < 3)):
+        diag.warn(
+            where,
+            f"{int(((counts > 0) & (counts < 3)).sum())} faces have fewer than 3 vertices; dropped",
+        )
 
     bad_index = (indices < 0) | (indices >= len(points))
     finite = np.all(np.isfinite(points), axis=1)
@@ -104,7 +143,9 @@ def read_topology(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> 
     drop = np.any((bad_index | bad_point)[triangles], axis=1)
     if np.any(bad_index):
         diag.warn(
-            where, f"{int(bad_index.sum())} face-vertex indices out of range; their faces dropped"
+            where,
+            f"{int(bad_index.sum())} faceVertexIndices out of range (0..{len(points) - 1}); "
+            "their faces dropped",
         )
     if not finite.all():
         diag.warn(
@@ -117,33 +158,81 @@ def read_topology(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> 
         diag.warn(where, "no renderable faces remain; skipped")
         return None
     safe_indices = np.where(bad_index, 0, indices)
-    return Topology(points, safe_indices, triangles, triangle_face, len(counts))
+    return Topology(points, counts, safe_indices, triangles, triangle_face, left_handed)
 
 
-def read_primvar(mesh: UsdGeom.Mesh, name: str, time: Usd.TimeCode) -> Primvar | None:
-    """A primvar flattened (indexed primvars expanded), or ``None`` if absent."""
-    primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar(name)
-    if not primvar or not primvar.HasValue():
+def read_mesh(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> Surface | None:
+    """A ``UsdGeom.Mesh`` as a :class:`Surface`; ``None`` (with a warning) if nothing renders."""
+    prim = mesh.GetPrim()
+    where = str(prim.GetPath())
+    points = attributes.vec3_array(mesh.GetPointsAttr(), time, diag)
+    counts = attributes.int_array(mesh.GetFaceVertexCountsAttr(), time, diag)
+    indices = attributes.int_array(mesh.GetFaceVertexIndicesAttr(), time, diag)
+    if points is None or counts is None or indices is None:
+        diag.warn(
+            where, "empty mesh (no usable points, faceVertexCounts or faceVertexIndices); skipped"
+        )
         return None
-    values = primvar.ComputeFlattened(time)
-    if values is None or len(values) == 0:
+    attributes.check_extent(prim, points, time, diag)
+    orientation = attributes.token(prim, "orientation", time, diag, ("rightHanded", "leftHanded"))
+    topology = make_topology(points, counts, indices, orientation == "leftHanded", where, diag)
+    if topology is None:
         return None
-    return Primvar(np.asarray(values, dtype=np.float64), str(primvar.GetInterpolation()))
+    scheme = attributes.token(prim, "subdivisionScheme", time, diag, SCHEMES)
+    return Surface(
+        prim,
+        topology,
+        normals=read_normals(mesh, time, diag),
+        primvars=read_primvars(prim, time, diag),
+        double_sided=double_sided(prim, time, diag),
+        scheme=scheme,
+    )
 
 
-def read_normals(mesh: UsdGeom.Mesh, time: Usd.TimeCode) -> Primvar | None:
+def with_points(surface: Surface, points: np.ndarray, diag: Diagnostics) -> Surface:
+    """The surface with its points moved (skinned); authored normals, now stale, are recomputed."""
+    from dataclasses import replace
+
+    topology = surface.topology
+    if len(points) != len(topology.points):
+        diag.warn(surface.where, "skinned points do not match the mesh's points; rest pose")
+        return surface
+    moved = replace(topology, points=np.asarray(points, dtype=np.float64))
+    normals = None if surface.normals is None else smooth_normals(moved)
+    return replace(surface, topology=moved, normals=normals)
+
+
+def double_sided(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> bool:
+    """The gprim's ``doubleSided`` (its schema fallback when unauthored; a warning if not a bool)."""
+    attr = UsdGeom.Gprim(prim).GetDoubleSidedAttr()
+    value = attr.Get(time) if attr else None
+    if value is None:
+        return False
+    if not isinstance(value, bool):
+        diag.warn(
+            str(prim.GetPath()),
+            f"doubleSided has type {attributes.authored_type(attr)}, expected bool; using false",
+        )
+        return False
+    return value
+
+
+def read_normals(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> Primvar | None:
     """``primvars:normals`` if authored, else the ``normals`` attribute with its interpolation."""
-    normals = read_primvar(mesh, "normals", time)
+    from pavonine.render.primvars import read_primvar
+
+    normals = read_primvar(mesh.GetPrim(), "normals", time, diag)
     if normals is not None:
-        return normals
-    values = mesh.GetNormalsAttr().Get(time)
+        return normals if normals.values.shape[1] == 3 else None
+    values = attributes.vec3_array(mesh.GetNormalsAttr(), time, diag)
     if values is None or len(values) == 0:
         return None
-    return Primvar(np.asarray(values, dtype=np.float64), str(mesh.GetNormalsInterpolation()))
+    interpolation = str(mesh.GetNormalsInterpolation())
+    return Primvar(values, interpolation, "Normal")
 
 
 def smooth_normals(topology: Topology) -> Primvar:
-    """Area-weighted vertex normals (for subdivision surfaces authored without normals)."""
+    """Area-weighted vertex normals (for smooth surfaces authored without normals)."""
     p = topology.points
     corner_points = topology.face_vertex_indices[topology.triangles]
     a, b, c = (p[corner_points[:, i]] for i in range(3))
@@ -151,61 +240,36 @@ def smooth_normals(topology: Topology) -> Primvar:
     normals = np.zeros_like(p)
     for i in range(3):
         np.add.at(normals, corner_points[:, i], face_normals)
-    return Primvar(normals, "vertex")
-
-
-def per_corner(
-    primvar: Primvar, topology: Topology, where: str, name: str, diag: Diagnostics
-) -> np.ndarray | None:
-    """Primvar values for every face-vertex corner, whatever its interpolation."""
-    values, interpolation = primvar.values, primvar.interpolation
-    n_corners = len(topology.face_vertex_indices)
-    if interpolation == "constant":
-        return np.repeat(values[:1], n_corners, axis=0)
-    if interpolation == "uniform":
-        if len(values) < topology.face_count:
-            diag.warn(
-                where,
-                f"uniform primvar {name} has {len(values)} values for {topology.face_count} faces; ignored",
-            )
-            return None
-        corner_face = np.zeros(n_corners, dtype=np.int64)
-        corner_face[topology.triangles.ravel()] = np.repeat(topology.triangle_face, 3)
-        return values[corner_face]
-    if interpolation in PER_VERTEX:
-        if len(values) < len(topology.points):
-            diag.warn(
-                where,
-                f"{interpolation} primvar {name} has {len(values)} values for {len(topology.points)} points; ignored",
-            )
-            return None
-        return values[topology.face_vertex_indices]
-    if interpolation == "faceVarying":
-        if len(values) < n_corners:
-            diag.warn(
-                where,
-                f"faceVarying primvar {name} has {len(values)} values for {n_corners} face-vertices; ignored",
-            )
-            return None
-        return values[:n_corners]
-    diag.warn(where, f"primvar {name} has unknown interpolation {interpolation!r}; ignored")
-    return None
+    return Primvar(normals, "vertex", "Normal")
 
 
 def material_groups(
-    mesh: UsdGeom.Mesh, topology: Topology, time: Usd.TimeCode, diag: Diagnostics
+    surface: Surface, time: Usd.TimeCode, diag: Diagnostics
 ) -> list[tuple[UsdShade.Material | None, np.ndarray]]:
     """``(bound material, triangle mask)`` per ``GeomSubset`` (familyName materialBind) and the rest."""
-    prim = mesh.GetPrim()
-    binding = UsdShade.MaterialBindingAPI(prim)
+    topology = surface.topology
+    binding = UsdShade.MaterialBindingAPI(surface.prim)
+    face = topology.triangle_face
+    if surface.authored_face is not None:
+        face = surface.authored_face[face]
     remaining = np.ones(len(topology.triangles), dtype=bool)
     groups: list[tuple[UsdShade.Material | None, np.ndarray]] = []
-    for subset in binding.GetMaterialBindSubsets():
-        faces = subset.GetIndicesAttr().Get(time)
+    subsets = binding.GetMaterialBindSubsets() if surface.prim.IsA(UsdGeom.Imageable) else []
+    for subset in subsets:
+        faces = attributes.int_array(subset.GetIndicesAttr(), time, diag)
         if faces is None or len(faces) == 0:
             continue
-        faces = np.asarray(faces, dtype=np.int64)
-        selected = np.isin(topology.triangle_face, faces) & remaining
+        authored_faces = (
+            topology.face_count
+            if surface.authored_face is None
+            else int(surface.authored_face.max() + 1)
+        )
+        if np.any((faces < 0) | (faces >= authored_faces)):
+            diag.warn(
+                str(subset.GetPath()),
+                f"indices out of range (0..{authored_faces - 1}); those faces ignored",
+            )
+        selected = np.isin(face, faces) & remaining
         remaining &= ~selected
         material = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial()[0]
         groups.append((material if material else None, selected))
@@ -215,30 +279,38 @@ def material_groups(
 
 
 def build_triangle_mesh(
-    mesh: UsdGeom.Mesh,
-    topology: Topology,
+    surface: Surface,
     triangle_mask: np.ndarray,
     matrix_usd: np.ndarray,
     uv_primvar: str,
-    attributes: dict[str, str],
-    time: Usd.TimeCode,
+    feather_attributes: dict[str, str],
     diag: Diagnostics,
     name: str,
+    all_primvars: bool = True,
 ) -> TriangleMesh:
-    """One material's triangles with positions/normals/uvs/attributes transformed by ``matrix_usd``."""
-    where = str(mesh.GetPath())
-    normals = read_normals(mesh, time)
-    if normals is None and mesh.GetSubdivisionSchemeAttr().Get(time) != UsdGeom.Tokens.none:
+    """One material's triangles with positions/normals/uvs/attributes transformed by ``matrix_usd``.
+
+    Every non-constant primvar becomes the attribute :func:`mesh_attribute_name` names, with its
+    values as authored (object space); ``feather_attributes`` (primvar → Mitsuba name) are the
+    feather BSDF's direction attributes, transformed with the mesh and renormalised. With
+    ``all_primvars`` false (a material that reads no primvar attribute: the feather BSDF) only
+    those are built, so that the mesh keeps its shared vertices.
+    """
+    topology, where = surface.topology, surface.where
+    normals = surface.normals
+    if normals is None and surface.scheme != "none":
         normals = smooth_normals(topology)
-    uv = read_primvar(mesh, uv_primvar, time)
+    uv = surface.primvars.get(uv_primvar)
     if uv is None and uv_primvar != "st":
         diag.warn(where, f"primvar {uv_primvar} not found; using st for texture coordinates")
-        uv = read_primvar(mesh, "st", time)
-    extra = {mi_name: read_primvar(mesh, primvar, time) for primvar, mi_name in attributes.items()}
-    extra = {k: v for k, v in extra.items() if v is not None}
-
-    varying = [normals, uv, *extra.values()]
-    welded = all(pv is None or pv.interpolation in (*PER_VERTEX, "constant") for pv in varying)
+        uv = surface.primvars.get("st")
+    primvars = surface.primvars if all_primvars else {}
+    per_vertex = {
+        n: pv for n, pv in primvars.items() if pv.interpolation not in ("constant", "uniform")
+    }
+    per_vertex.update({n: surface.primvars[n] for n in feather_attributes if n in surface.primvars})
+    corner_data = [normals, uv, *per_vertex.values()]
+    welded = all(pv is None or pv.interpolation in (*PER_VERTEX, "constant") for pv in corner_data)
     triangles = topology.triangles[triangle_mask]
     if welded:
         vertex_of_corner = topology.face_vertex_indices
@@ -256,16 +328,26 @@ def build_triangle_mesh(
     if flips_handedness(matrix_usd):
         faces = faces[:, [0, 2, 1]]
     out = TriangleMesh(name, positions.astype(np.float32), faces.astype(np.uint32))
+    corner_face = topology.corner_face
 
     def corner_values(primvar: Primvar, label: str) -> np.ndarray | None:
-        values = per_corner(primvar, topology, where, label, diag)
+        values = per_corner(
+            primvar,
+            topology.face_vertex_indices,
+            corner_face,
+            len(topology.points),
+            topology.face_count,
+            where,
+            label,
+            diag,
+        )
         return None if values is None else values[corner_of_vertex]
 
     if normals is not None:
         n = corner_values(normals, "normals")
         if n is not None:
-            n = transform_normals(np.nan_to_num(n, nan=0.0, posinf=0.0, neginf=0.0), matrix_usd)
-            bad = np.linalg.norm(n, axis=1) < 0.5  # zero, NaN or infinite as authored
+            n = transform_normals(n, matrix_usd)
+            bad = np.linalg.norm(n, axis=1) < 0.5  # zero as authored
             if np.any(bad):
                 diag.warn(
                     where,
@@ -276,18 +358,36 @@ def build_triangle_mesh(
             out.normals = n.astype(np.float32)
     if uv is not None:
         t = corner_values(uv, uv_primvar)
-        if t is not None and t.shape[1] >= 2 and np.all(np.isfinite(t)):
+        if t is not None and t.shape[1] >= 2:
             # USD's st has v up; Mitsuba's bitmap rows start at the top (as its OBJ/PLY loaders do).
             out.texcoords = np.stack([t[:, 0], 1.0 - t[:, 1]], axis=1).astype(np.float32)
-    out.attributes = {}
-    for mi_name, primvar in extra.items():
-        values = corner_values(primvar, mi_name)
+    for primvar_name, primvar in primvars.items():
+        attribute = mesh_attribute_name(primvar_name, primvar.interpolation)
+        if attribute is None:
+            continue
+        if primvar.interpolation == "uniform":
+            if len(primvar.values) < topology.face_count:
+                diag.warn(
+                    where,
+                    f"uniform primvar {primvar_name} has {len(primvar.values)} values for "
+                    f"{topology.face_count} faces; ignored",
+                )
+                continue
+            values = primvar.values[topology.triangle_face[triangle_mask]]
+        else:
+            values = corner_values(primvar, primvar_name)
+            if values is None:
+                continue
+        out.attributes[attribute] = values.astype(np.float32)
+    for primvar_name, mi_name in feather_attributes.items():
+        primvar = surface.primvars.get(primvar_name)
+        values = None if primvar is None else corner_values(primvar, primvar_name)
         if values is not None and values.shape[1] == 3:
             out.attributes[mi_name] = transform_directions(values, matrix_usd).astype(np.float32)
-    for mi_name in set(attributes.values()) - set(out.attributes):
-        # Requested but not authored (e.g. a hand-made feather mesh without barb tangents): the
-        # BSDF reads the attribute on every mesh of its material, so supply dp/du instead.
-        out.attributes[mi_name] = uv_tangents(out.positions, out.faces, out.texcoords)
+        else:
+            # Requested but not authored (e.g. a hand-made feather mesh without barb tangents):
+            # the BSDF reads the attribute on every mesh of its material, so supply dp/du instead.
+            out.attributes[mi_name] = uv_tangents(out.positions, out.faces, out.texcoords)
     return out
 
 

@@ -8,6 +8,7 @@ fallback (``outputs:surface``) are derived from them by :func:`create_feather_ma
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -54,9 +55,13 @@ MTLX_SHADER = "FeatherMtlx"
 PREVIEW_SHADER = "PreviewSurface"
 ALPHA_TEXTURE = "AlphaTexture"
 # The six maps live in feather space: meshes carry it as this primvar (the atlas `st` is for baking).
-FEATHER_UV_PRIMVAR = "pavonine:featherUV"
+# Names are valid identifiers: hosts paste MaterialX geomprop names into shader code.
+FEATHER_UV_PRIMVAR = "pavonine_featherUV"
+BARB_TANGENT_PRIMVAR = "pavonine_barbTangent"
 TEXCOORD_READER = "TexCoordReader"
 MTLX_RENDER_CONTEXT = "mtlx"
+#: customData key on a feather material recording what its baked textures were made from.
+BAKE_KEY = "pavonine:bake"
 #: Class and gradation the preview colour is evaluated at (missing maps mean class 0, and the
 #: middle of the gradation range is the class's typical colour).
 PREVIEW_CLASS = 0
@@ -236,6 +241,12 @@ def anchored_path(attr: Usd.Attribute, asset: str) -> str:
     return asset
 
 
+def parameters_digest(params: FeatherParameters) -> str:
+    """A short digest of a material's parameters, recorded with baked textures to tell when
+    they are stale."""
+    return hashlib.sha256(repr(params).encode()).hexdigest()[:16]
+
+
 def derived_values(params: FeatherParameters) -> DerivedValues:
     """The shader values derived from ``params`` (the schema attributes)."""
     return DerivedValues(
@@ -280,6 +291,17 @@ def sync_derived_shaders(material: UsdShade.Material) -> None:
     mtlx_out = mtlx.CreateOutput("out", Sdf.ValueTypeNames.Token)
     material.CreateSurfaceOutput(MTLX_RENDER_CONTEXT).ConnectToSource(mtlx_out)
 
+    preview = UsdShade.Shader.Get(stage, base.AppendChild(PREVIEW_SHADER))
+    diffuse = preview.GetInput("diffuseColor") if preview else None
+    if diffuse and diffuse.HasConnectedSource():
+        return  # a baked preview (pavonine bake) reads textures; re-bake to update it
+    _author_preview(material, values)
+
+
+def _author_preview(material: UsdShade.Material, values: DerivedValues) -> None:
+    """The unbaked UsdPreviewSurface: the derived constants, opacity from the alpha map."""
+    stage = material.GetPrim().GetStage()
+    base = material.GetPath()
     preview = UsdShade.Shader.Define(stage, base.AppendChild(PREVIEW_SHADER))
     preview.SetShaderId("UsdPreviewSurface")
     preview.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(

@@ -3,7 +3,9 @@
 Runs usd-core's own ``pxr/Usd/usdGenSchema.py`` (codeless: ``skipCodeGeneration``) on a copy of
 ``schema.usda`` whose numeric fallbacks are replaced by the values of
 ``pavonine.materials.parameters`` (one source of truth), fills the ``@PLUG_INFO_…@``
-placeholders, and adds the Python plugin that carries Pavonine's validators.
+placeholders, and writes the Python plugin that carries Pavonine's validators into its own folder
+(``validators/plugInfo.json``): the schema's folder declares only the schema, so a process without
+Pavonine's Python package can use it (see ``plugin.py``).
 
     python -m pavonine.schemas.generate            # rewrite the generated files
     python -m pavonine.schemas.generate --check    # exit 1 if they are stale
@@ -19,12 +21,14 @@ import sys
 import tempfile
 from pathlib import Path
 
+from pavonine.schemas.plugin import VALIDATOR_PLUGIN_NAME
+
 SCHEMA_DIR = Path(__file__).resolve().parent
 SOURCE = SCHEMA_DIR / "schema.usda"
-GENERATED = ("generatedSchema.usda", "plugInfo.json")
+GENERATED = ("generatedSchema.usda", "plugInfo.json", "validators/plugInfo.json")
 
 #: Python plugin (imported by USD's plugin system) that registers Pavonine's validators.
-VALIDATOR_PLUGIN = "pavonine.schemas.validation"
+VALIDATOR_PLUGIN = VALIDATOR_PLUGIN_NAME
 
 #: Validator name (without the plugin prefix) -> (doc, schema types). Keyword: PavonineValidators.
 VALIDATORS: dict[str, tuple[str, list[str]]] = {
@@ -44,7 +48,7 @@ VALIDATORS: dict[str, tuple[str, list[str]]] = {
     ),
     "FeatherDerivedShaders": (
         "The MaterialX and UsdPreviewSurface shaders bound beside the schema agree with the schema "
-        "attributes they are derived from.",
+        "attributes they are derived from; baked textures were made from the current attributes.",
         ["PavonineFeatherAPI"],
     ),
 }
@@ -128,30 +132,39 @@ def _usd_gen_schema() -> Path:
 
 
 def _plug_info(raw: str) -> str:
-    """Fill usdGenSchema's placeholders and add the validator plugin."""
+    """Fill usdGenSchema's placeholders (paths relative to ``plugInfo.json``)."""
     text = (
         raw.replace("@PLUG_INFO_LIBRARY_PATH@", "")
         .replace("@PLUG_INFO_RESOURCE_PATH@", ".")
         .replace("@PLUG_INFO_ROOT@", ".")
     )
     start = "\n".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
-    info = json.loads(start)
-    info["Plugins"].append(
-        {
-            "Info": {
-                "Validators": {
-                    name: {"doc": doc, "keywords": ["PavonineValidators"], "schemaTypes": types}
-                    for name, (doc, types) in VALIDATORS.items()
-                }
-            },
-            "LibraryPath": "",
-            "Name": VALIDATOR_PLUGIN,
-            # Plug keys plugins by path: the Python plugin needs its own root (the module).
-            "ResourcePath": ".",
-            "Root": "validation.py",
-            "Type": "python",
-        }
-    )
+    return json.dumps(json.loads(start), indent=4, sort_keys=True) + "\n"
+
+
+def _validator_plug_info() -> str:
+    """``validators/plugInfo.json``: the Python plugin declaring Pavonine's validators."""
+    info = {
+        "Plugins": [
+            {
+                "Info": {
+                    "Validators": {
+                        name: {
+                            "doc": doc,
+                            "keywords": ["PavonineValidators"],
+                            "schemaTypes": types,
+                        }
+                        for name, (doc, types) in VALIDATORS.items()
+                    }
+                },
+                "LibraryPath": "",
+                "Name": VALIDATOR_PLUGIN,
+                "ResourcePath": ".",
+                "Root": ".",
+                "Type": "python",
+            }
+        ]
+    }
     return json.dumps(info, indent=4, sort_keys=True) + "\n"
 
 
@@ -177,6 +190,7 @@ def generate(out_dir: Path) -> dict[str, str]:
         texts = {
             "generatedSchema.usda": (gen_dir / "generatedSchema.usda").read_text(),
             "plugInfo.json": _plug_info((gen_dir / "plugInfo.json").read_text()),
+            "validators/plugInfo.json": _validator_plug_info(),
         }
     return texts
 
@@ -207,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
             )
         return 1 if stale or mismatches else 0
     for name, text in generate(SCHEMA_DIR).items():
+        (SCHEMA_DIR / name).parent.mkdir(parents=True, exist_ok=True)
         (SCHEMA_DIR / name).write_text(text)
         print(f"wrote schemas/{name}")
     return 1 if mismatches else 0

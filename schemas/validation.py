@@ -1,25 +1,22 @@
 """Pavonine's USD validators, registered with ``UsdValidation`` the way USD registers its own.
 
-``plugInfo.json`` declares the validators (plugin ``pavonine.schemas.validation``, keyword
+``validators/plugInfo.json`` declares the validators (plugin ``pavonine.schemas.validation``, keyword
 ``PavonineValidators``, schema type ``PavonineFeatherAPI``) so that USD's
 ``ValidationRegistry`` knows their metadata before anything is loaded; the first
 ``GetOrLoadValidatorByName`` imports this module (USD's Python-plugin loading), whose top level
 registers the task functions with ``RegisterPluginPrimValidator`` — the Python counterpart of
 ``TF_REGISTRY_FUNCTION(UsdValidationRegistry)`` in a C++ plugin.
 
-:func:`validate_stage` runs every registered validator (USD's own and these) through one
-``UsdValidation.ValidationContext`` and returns :class:`Finding` rows for ``pavonine validate``.
+:func:`pavonine.schemas.findings.validate_stage` runs every registered validator (USD's own and
+these) through one ``UsdValidation.ValidationContext`` for ``pavonine validate``. The plugin
+folder is ``schemas/validators/``, separate from the schema's (``pavonine env --validators``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import math
-import os
-import sys
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
 
 from pxr import Usd, UsdShade, UsdValidation
 
@@ -29,6 +26,12 @@ from pavonine.schemas import authoring
 from pavonine.schemas.plugin import SCHEMA_NAME, VALIDATOR_PLUGIN_NAME
 
 KEYWORD = "PavonineValidators"
+
+
+class ValidatorsNotRegisteredError(RuntimeError):
+    """USD's validation registry was built before Pavonine's validator plugin was registered."""
+
+
 ERROR = UsdValidation.ValidationErrorType.Error
 WARN = UsdValidation.ValidationErrorType.Warn
 
@@ -41,31 +44,13 @@ ANGLE_MAX = 60.0
 PREVIEW_TOLERANCE = 2e-3
 
 
-@dataclass(frozen=True)
-class Finding:
-    """One validation result: ``severity path field: message``."""
-
-    severity: str  # "ERROR" | "WARNING"
-    path: str  # prim path, or "/" for the layer/stage
-    field: str  # attribute name, or the error's name when it is not about one attribute
-    message: str
-    validator: str
-    file: str
-
-    def line(self) -> str:
-        return f"{self.severity} {self.path} {self.field}: {self.message}"
-
-    def as_dict(self) -> dict[str, str]:
-        return asdict(self)
-
-
 # ---------------------------------------------------------------------------------------------
 # Helpers building UsdValidation errors
 # ---------------------------------------------------------------------------------------------
 
 
 #: Error name -> field reported when the error is about prim metadata rather than a property.
-_METADATA_FIELD = {"FeatherApiNotOnMaterial": "apiSchemas"}
+METADATA_FIELD = {"FeatherApiNotOnMaterial": "apiSchemas"}
 
 
 def _error(
@@ -275,12 +260,19 @@ def _texture_shaders(material: Usd.Prim) -> Iterable[UsdShade.Shader]:
 
 
 def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int, int] | None]:
-    """[(severity, name, message)] for one image file, and its (width, height)."""
+    """[(severity, name, message)] for one image behind a resolved asset path (a file, or a
+    member of a ``.usdz`` package read through Ar), and its (width, height)."""
     import numpy as np
     import OpenImageIO as oiio
 
+    from pavonine.asset_io import local_file
+
     problems: list[tuple[str, str, object]] = []
-    inp = oiio.ImageInput.open(path)
+    try:
+        local = local_file(path)
+    except OSError as exc:
+        return [(ERROR, "MapMissing", f"cannot read {path}: {exc.strerror or exc}")], None
+    inp = oiio.ImageInput.open(local)
     if inp is None:
         message = oiio.geterror() or "unknown format"
         return [
@@ -449,9 +441,10 @@ def feather_derived_shaders(prim: Usd.Prim, time_range=None) -> list:
                 )
             )
         expected = materialx.input_values(params)
+        known = set(materialx.input_names())
         for inp in mtlx.GetInputs():
             name = inp.GetBaseName()
-            if name not in expected:
+            if name not in known:
                 errors.append(
                     _error(
                         mtlx.GetPrim(),
@@ -461,7 +454,7 @@ def feather_derived_shaders(prim: Usd.Prim, time_range=None) -> list:
                     )
                 )
         for name, value in expected.items():
-            if name in ("ocellar_class", "gradation", "structural", "opacity"):
+            if name in materialx.PER_TEXEL_INPUTS:
                 continue  # per-texel values (maps), not derived from the schema
             inp = mtlx.GetInput(name)
             if not inp:
@@ -508,14 +501,34 @@ def feather_derived_shaders(prim: Usd.Prim, time_range=None) -> list:
                     "inputs:roughness",
                 )
             )
+    errors += _stale_bake(prim, params)
     return errors
+
+
+def _stale_bake(prim: Usd.Prim, params) -> list:
+    """A warning when the textures were baked from other parameters (``customData`` recorded
+    by ``pavonine bake``/``convert``)."""
+    record = prim.GetCustomDataByKey(authoring.BAKE_KEY)
+    if not isinstance(record, dict) or "parameters" not in record:
+        return []
+    if record["parameters"] == authoring.parameters_digest(params):
+        return []
+    return [
+        _error(
+            prim,
+            "BakedTexturesStale",
+            "the baked textures were made from other schema attributes; re-run pavonine bake",
+            None,
+            WARN,
+        )
+    ]
 
 
 _PREVIEW_CACHE: dict = {}
 
 
 def _preview_color(params) -> tuple[float, float, float]:
-    """Preview colour of ``params``, memoised; :func:`validate_stage` fills the cache on the main
+    """Preview colour of ``params``, memoised; :func:`prepare` fills the cache on the main
     thread first because USD runs prim validators on worker threads and Mitsuba must not be
     first imported concurrently."""
     if params not in _PREVIEW_CACHE:
@@ -523,7 +536,9 @@ def _preview_color(params) -> tuple[float, float, float]:
     return _PREVIEW_CACHE[params]
 
 
-def _prepare(stage: Usd.Stage) -> None:
+def prepare(stage: Usd.Stage) -> None:
+    """Compute what validators need from Mitsuba on this (the main) thread; see
+    :func:`_preview_color`."""
     for prim in stage.Traverse():
         if _has_feather_api(prim) and prim.IsA(UsdShade.Material):
             try:
@@ -543,12 +558,24 @@ TASKS: dict[str, Callable] = {
 
 
 def register() -> None:
-    """Register the prim tasks with USD's ValidationRegistry (metadata from plugInfo.json)."""
+    """Register the prim tasks with USD's ValidationRegistry (metadata from
+    ``validators/plugInfo.json``, which must be known before the registry was first built)."""
+    from pxr import Tf
+
     registry = UsdValidation.ValidationRegistry()
     for name, task in TASKS.items():
         full = f"{VALIDATOR_PLUGIN_NAME}:{name}"
-        if not registry.HasValidator(full):
+        if registry.HasValidator(full):
+            continue
+        try:
             registry.RegisterPluginPrimValidator(full, task)
+        except Tf.ErrorException:
+            raise ValidatorsNotRegisteredError(
+                f"USD does not know the validator {full}: UsdValidation.ValidationRegistry() was "
+                "created before pavonine registered its validator plugin. Import pavonine before "
+                "using pxr.UsdValidation, or set PXR_PLUGINPATH_NAME as printed by "
+                "`pavonine env --validators`."
+            ) from None
 
 
 def validator_names() -> list[str]:
@@ -556,103 +583,6 @@ def validator_names() -> list[str]:
     return [f"{VALIDATOR_PLUGIN_NAME}:{name}" for name in TASKS]
 
 
-# ---------------------------------------------------------------------------------------------
-# Running everything
-# ---------------------------------------------------------------------------------------------
-
-
-def all_validators() -> list:
-    """USD's registered validators plus Pavonine's, loaded through the registry."""
-    registry = UsdValidation.ValidationRegistry()
-    validators = list(registry.GetOrLoadAllValidators())
-    names = {v.GetMetadata().name for v in validators}
-    for name in validator_names():
-        if name not in names:
-            validators.append(registry.GetOrLoadValidatorByName(name))
-    return validators
-
-
-def _finding(error, file: str) -> Finding:
-    severity = "ERROR" if error.GetType() == ERROR else "WARNING"
-    path, field = "/", _METADATA_FIELD.get(error.GetName(), error.GetName())
-    for site in error.GetSites():
-        if site.IsProperty():
-            prop_path = site.GetProperty().GetPath()
-            path, field = str(prop_path.GetPrimPath()), prop_path.name
-            break
-        if site.IsPrim():
-            path = str(site.GetPrim().GetPath())
-            break
-        spec = site.GetPropertySpec() or site.GetPrimSpec()
-        if spec:
-            path = str(spec.path.GetPrimPath())
-            if spec.path.IsPropertyPath():
-                field = spec.path.name
-            break
-    validator = error.GetValidator()
-    name = validator.GetMetadata().name if validator else ""
-    message = " ".join(error.GetMessage().split())
-    return Finding(severity, path, field, message, name, file)
-
-
-#: USD validators whose verdict Pavonine adjusts (see :func:`_adjust_usd_findings`).
-_SDR_VALIDATOR = "usdShadeValidators:ShaderSdrCompliance"
-_GEOM_METADATA = {"MissingUpAxisMetadata", "MissingMetersPerUnitMetadata"}
-
-
-def _adjust_usd_findings(stage: Usd.Stage, findings: list[Finding]) -> list[Finding]:
-    """Two adjustments to USD's own findings, both documented in docs/schema.md:
-
-    * usd-core ships no usdMtlx, so Sdr cannot know MaterialX node definitions and
-      ``ShaderSdrCompliance`` rejects every ``ND_pavonine_feather_surfaceshader`` shader.
-      Those findings are dropped; ``FeatherDerivedShaders`` checks the shader against the
-      ``.mtlx`` node definition instead.
-    * ``upAxis``/``metersPerUnit`` describe geometry; a layer without any (a material library)
-      gets them as warnings rather than errors.
-    """
-    from pxr import UsdGeom
-
-    has_geometry = any(UsdGeom.Boundable(p) for p in stage.Traverse())
-    out = []
-    for f in findings:
-        if f.validator == _SDR_VALIDATOR and materialx.NODEDEF in f.message:
-            continue
-        if f.field in _GEOM_METADATA and not has_geometry and f.severity == "ERROR":
-            f = Finding(
-                "WARNING", f.path, f.field, f.message + " (no geometry here)", f.validator, f.file
-            )
-        out.append(f)
-    return out
-
-
-@contextlib.contextmanager
-def _quiet_stderr():
-    """Silence USD's own diagnostic prints (TF_WARN) while validators run: what they say comes
-    back as validation errors, reported in Pavonine's one-line form."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 2)
-            yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def validate_stage(stage: Usd.Stage, file: str | None = None) -> list[Finding]:
-    """Every finding of USD's validators and Pavonine's on ``stage``, sorted by prim path."""
-    file = file or stage.GetRootLayer().identifier
-    _prepare(stage)
-    context = UsdValidation.ValidationContext(all_validators())
-    with _quiet_stderr():
-        errors = context.Validate(stage)
-    findings = [_finding(e, file) for e in errors if not e.HasNoError()]
-    findings = _adjust_usd_findings(stage, findings)
-    unique = list(dict.fromkeys(findings))
-    return sorted(unique, key=lambda f: (f.path, f.field, f.severity, f.message))
-
-
 register()
 
-__all__ = ["Finding", "validate_stage", "validator_names"]
+__all__ = ["TASKS", "ValidatorsNotRegisteredError", "validator_names"]

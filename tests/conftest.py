@@ -126,3 +126,25 @@ def pytest_runtest_makereport(item, call):
     ):
         report.outcome = "skipped"
         report.longrepr = (str(item.path), item.location[1] or 0, f"Skipped: {DRJIT_REASON}")
+
+
+@pytest.fixture(scope="session")
+def eye_asset(tmp_path_factory):
+    """A converted eye feather shared by the portable-asset tests (256-px maps, 12k/4k/1k
+    triangles, 256² baked textures). Tests that change it work on a copy."""
+    reason = missing_system_tools().get("convert")
+    if reason:
+        pytest.skip(reason)
+    from pavonine.pipeline.convert.batch import convert_recipe
+    from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
+
+    work = tmp_path_factory.mktemp("eye_asset")
+    write_maps(generate_maps("eye", 256, seed=4), work / "m")
+    maps = "\n".join(f'{name} = "m/{name}.png"' for name in MAP_NAMES)
+    (work / "eye.toml").write_text(
+        f'name = "eye_feather"\n[maps]\n{maps}\n[material]\npreset = "paper-table1"\n'
+        "[geometry]\nlength_cm = 20\nrachis_length = 0.74\n"
+        "[geometry.lod]\nhigh = 12000\nmedium = 4000\nlow = 1000\n[bake]\nresolution = 256\n"
+    )
+    result = convert_recipe(work / "eye.toml", work / "out")
+    return result.root

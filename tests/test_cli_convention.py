@@ -202,7 +202,21 @@ EXAMPLES: dict[tuple[str, ...], tuple[Callable, set[int]]] = {
         {0},
     ),
     ("doctor",): (lambda tmp, mp: [], {0}),
+    ("bake",): (lambda tmp, mp: [str(_asset_copy(tmp)), "--resolution", "32"], {0}),
+    ("package",): (lambda tmp, mp: [str(_asset_copy(tmp)), "-o", str(tmp / "eye.usdz")], {0}),
+    ("export",): (lambda tmp, mp: [str(_asset_copy(tmp)), "-o", str(tmp / "eye.glb")], {0}),
 }
+
+_EYE_ASSET: list[Path] = []  # set by the eye_asset fixture for the examples that need it
+
+
+def _asset_copy(tmp: Path) -> Path:
+    """A copy of the session's converted eye feather (conftest's ``eye_asset``)."""
+    import shutil
+
+    source = _EYE_ASSET[0].parent
+    shutil.copytree(source, tmp / source.name)
+    return tmp / source.name
 
 
 @pytest.mark.parametrize("path", LEAVES, ids=IDS)
@@ -220,6 +234,7 @@ def test_every_reporting_command_has_json_with_a_schema(path):
 NEEDS = {("convert",): ["convert"], ("demo",): ["convert", "render"], ("render",): ["render"]}
 NEEDS |= {("check-renders",): ["mitsuba"], ("baseline", "update"): ["mitsuba"]}
 NEEDS |= {("doctor",): ["mitsuba"]}
+NEEDS |= {("bake",): ["convert"], ("package",): ["convert"], ("export",): ["convert"]}
 JSON_CASES = [
     pytest.param(p, id=" ".join(p), marks=[getattr(pytest.mark, m) for m in NEEDS.get(p, [])])
     for p in sorted(EXAMPLES)
@@ -227,7 +242,11 @@ JSON_CASES = [
 
 
 @pytest.mark.parametrize("path", JSON_CASES)
-def test_json_to_stdout_is_the_documented_report_and_nothing_else(path, tmp_path, monkeypatch):
+def test_json_to_stdout_is_the_documented_report_and_nothing_else(
+    path, tmp_path, monkeypatch, request
+):
+    if path in (("bake",), ("package",), ("export",)):
+        _EYE_ASSET[:] = [request.getfixturevalue("eye_asset")]
     make_args, exit_codes = EXAMPLES[path]
     monkeypatch.chdir(tmp_path)
     args = make_args(tmp_path, monkeypatch)
@@ -357,6 +376,21 @@ def test_base_install_has_optics_and_schema(tmp_path):
     doctor = run_without_extras("doctor", "--json", "-", cwd=tmp_path)
     info = json.loads(doctor.stdout)
     assert info["extras"] == {"convert": False, "render": False} and info["variant"] is None
+
+
+@pytest.mark.convert
+def test_convert_extra_works_without_the_renderer(tmp_path):
+    """``pip install pavonine[convert]``: maps, convert (with its baking) without Mitsuba/OCIO."""
+    render_only = ("mitsuba", "drjit", "PyOpenColorIO", "flip_evaluator", "jinja2")
+    args = _small_recipe(tmp_path)
+    code = BLOCKER.format(BLOCKED=set(render_only))
+    result = subprocess.run(
+        [sys.executable, "-c", code, "convert", *args, "--json", "-"],
+        capture_output=True, text=True, cwd=tmp_path, timeout=600, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    [converted] = json.loads(result.stdout)["converted"]
+    assert Path(converted["asset"]).is_file()
 
 
 @pytest.mark.parametrize(

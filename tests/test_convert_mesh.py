@@ -14,16 +14,18 @@ pytest.importorskip(
 )
 pytestmark = pytest.mark.convert
 
-from pavonine.pipeline.convert.mesh import (
+from pavonine.pipeline.convert.atlas import (
     AtlasedMesh,
-    barb_direction_field,
     build_atlas,
+    st_flips,
+    st_overlap_fraction,
+)
+from pavonine.pipeline.convert.mesh import (
+    barb_direction_field,
     clip_to_silhouette,
     edge_report,
     grid_mesh,
     refine,
-    st_flips,
-    st_overlap_fraction,
     triangle_areas,
 )
 

@@ -18,6 +18,7 @@ import pytest
 from pavonine.materials import colour, materialx
 from pavonine.materials.layers import optical_distance
 from pavonine.materials.parameters import preset
+from pavonine.pipeline.maps.paint import ocellar_class, ocellar_grey
 from pavonine.schemas.authoring import CLASS_ATTRS, SCALAR_ATTRS
 
 WAVELENGTHS = np.arange(380.0, 781.0, 5.0)
@@ -116,9 +117,19 @@ def test_class_switch_and_gradation_mix(doc):
         distance = optical_distance(stack.interval, stack.radius)
         expected = materialx.FILM_ORDER_FACTOR * 1000.0 * distance / 2.0
         got = materialx.film_thickness_nm(
-            params, "long", ocellar_class=3, gradation=gradation, doc=doc
+            params, "long", ocellar=float(ocellar_grey(3)), gradation=gradation, doc=doc
         )
         assert got == pytest.approx(expected, rel=1e-5)
+
+
+@pytest.mark.parametrize("classes", [1, 3, 6])
+def test_class_index_reads_the_ocellar_map_like_the_renderer(doc, classes):
+    """The graph's class index from the ocellar grey is the one the maps define."""
+    greys = np.append((np.arange(40) + 0.37) / 40, [0.0, 1.0])  # no exact ties
+    expected = ocellar_class(greys, classes=classes)
+    for grey, k in zip(greys, expected, strict=True):
+        values = {"ocellar": float(grey), "class_count": classes}
+        assert materialx.evaluate_node(doc, "class_index", values) == k, grey
 
 
 def test_hue_follows_class_parameters(doc):
@@ -137,10 +148,10 @@ def test_hue_follows_class_parameters(doc):
     # Across Table 1, the black class (short intervals) is bluer than the white class.
     table = preset("paper-table1")
     white = colour.reflectance_to_linear_srgb(
-        WAVELENGTHS, materialx.graph_reflectance(table, WAVELENGTHS, 0, 0.5, doc=doc)
+        WAVELENGTHS, materialx.graph_reflectance(table, WAVELENGTHS, ocellar_grey(0), 0.5, doc=doc)
     )
     black = colour.reflectance_to_linear_srgb(
-        WAVELENGTHS, materialx.graph_reflectance(table, WAVELENGTHS, 5, 0.5, doc=doc)
+        WAVELENGTHS, materialx.graph_reflectance(table, WAVELENGTHS, ocellar_grey(5), 0.5, doc=doc)
     )
     assert black[2] / black[0] > white[2] / white[0]
 

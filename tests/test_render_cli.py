@@ -60,7 +60,8 @@ def test_bad_data_renders_what_it_can_with_warnings_naming_prims(tmp_path):
     assert "warning: /NaNPoints: 1 of 5 points are NaN" in err
     assert "warning: /Empty: empty mesh" in err
     assert "warning: /Looks/Textured/Albedo: texture 'textures/missing_albedo.png' not found" in err
-    assert "warning: /Box: Cube prims are not supported" in err
+    assert "warning: /Box: NurbsPatch prims are not supported" in err
+    assert "warning: /IntNormals: normals has type int, expected normal3f[]; ignored" in err
     assert "Traceback" not in err
     pixels, _ = read_exr(out)
     assert np.isfinite(pixels).all()

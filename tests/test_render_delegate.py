@@ -110,6 +110,7 @@ def test_nan_points_drop_faces_with_a_warning_naming_the_prim():
     mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (float("nan"), 2, 0)])
     mesh.CreateFaceVertexCountsAttr([3, 3, 3])
     mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 0, 2, 3, 2, 3, 4])
+    mesh.CreateSubdivisionSchemeAttr("none")
     with pytest.warns(StageWarning, match="/Broken: 1 of 5 points are NaN"):
         scene = StageDelegate(stage, Usd.TimeCode.Default(), Diagnostics()).sync()
     assert mesh_params(next(iter(scene.shapes.values())))["faces"].size == 6
@@ -125,9 +126,9 @@ def test_empty_mesh_is_skipped_with_a_warning():
 
 def test_unsupported_prim_warns_once():
     stage = Usd.Stage.CreateInMemory()
-    UsdGeom.Cube.Define(stage, "/Box")
+    UsdGeom.NurbsPatch.Define(stage, "/Box")
     diag = Diagnostics()
-    with pytest.warns(StageWarning, match="/Box: Cube prims are not supported"):
+    with pytest.warns(StageWarning, match="/Box: NurbsPatch prims are not supported"):
         StageDelegate(stage, Usd.TimeCode.Default(), diag).sync()
     assert len(diag.messages) == 1
 

@@ -63,6 +63,7 @@ def test_schema_source_fallbacks_match_parameters():
 
 def test_stale_detection_notices_an_edit(tmp_path):
     for name in generate.GENERATED:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text((plugin.PLUGIN_DIR / name).read_text())
     assert generate.stale_files(tmp_path) == []
     edited = (tmp_path / "generatedSchema.usda").read_text().replace("= 15", "= 16", 1)
@@ -70,17 +71,19 @@ def test_stale_detection_notices_an_edit(tmp_path):
     assert generate.stale_files(tmp_path) == ["generatedSchema.usda"]
 
 
-def test_plug_info_has_no_placeholders_and_declares_validators():
+def test_schema_plugin_declares_only_the_schema_and_validators_live_apart():
     text = plugin.PLUG_INFO.read_text()
     assert "@PLUG_INFO" not in text
     info = json.loads(text)
-    names = {p["Name"]: p for p in info["Plugins"]}
-    assert (
-        names["pavonine"]["Info"]["Types"]["PavonineFeatherAPI"]["schemaKind"] == "singleApplyAPI"
-    )
-    assert set(names[plugin.VALIDATOR_PLUGIN_NAME]["Info"]["Validators"]) == set(
-        generate.VALIDATORS
-    )
+    assert [p["Name"] for p in info["Plugins"]] == ["pavonine"]
+    schema = info["Plugins"][0]
+    assert schema["Type"] == "resource" and "Validators" not in schema["Info"]
+    assert schema["Info"]["Types"]["PavonineFeatherAPI"]["schemaKind"] == "singleApplyAPI"
+    validators = json.loads(plugin.VALIDATORS_PLUG_INFO.read_text())["Plugins"]
+    assert [p["Name"] for p in validators] == [plugin.VALIDATOR_PLUGIN_NAME]
+    assert validators[0]["Type"] == "python"
+    assert set(validators[0]["Info"]["Validators"]) == set(generate.VALIDATORS)
+    assert plugin.VALIDATORS_DIR != plugin.PLUGIN_DIR
 
 
 # --- the schema contract -----------------------------------------------------------------------
@@ -191,8 +194,9 @@ def test_env_line_makes_schema_visible_to_a_process_without_pavonine(tmp_path):
         env={k: v for k, v in os.environ.items() if k != "PXR_PLUGINPATH_NAME"},
         check=True,
     ).stdout.strip()
-    match = re.fullmatch(r"export PXR_PLUGINPATH_NAME=(\S+)", env_line)
+    match = re.match(r"export PXR_PLUGINPATH_NAME=(\S+)\n", env_line)
     assert match, env_line
+    assert match.group(1) == str(plugin.PLUGIN_DIR)  # the schema only, not the validators
     code = _PROBE.format(path=str(tmp_path / "asset.usda")) + (
         "import sys; print('pavonine' in sys.modules)\n"
         "d = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition('PavonineFeatherAPI')\n"

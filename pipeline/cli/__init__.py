@@ -27,6 +27,9 @@ COMMANDS: dict[str, str] = {
     "check-renders": "pavonine.pipeline.cli.check_renders:check_renders",
     "maps": "pavonine.pipeline.cli.maps:maps",
     "convert": "pavonine.pipeline.cli.convert:convert",
+    "bake": "pavonine.pipeline.cli.bake:bake",
+    "package": "pavonine.pipeline.cli.package:package",
+    "export": "pavonine.pipeline.cli.export:export",
 }
 
 

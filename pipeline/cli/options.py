@@ -60,6 +60,7 @@ EXTRA_OF_MODULE = {
     "pymeshlab": "convert",
     "xatlas": "convert",
     "MaterialX": "convert",
+    "pygltflib": "convert",
 }
 
 

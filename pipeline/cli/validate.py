@@ -91,7 +91,7 @@ def validate(
     stderr). --junit writes one test case per file, failing on its errors.
     """
     import pavonine  # noqa: F401  (registers the schema plugin before USD builds its registries)
-    from pavonine.schemas.validation import validate_stage
+    from pavonine.schemas.findings import validate_stage
 
     findings = []
     unreadable = []

@@ -3,14 +3,21 @@
 Layout of ``OUTDIR/NAME/`` (every path inside is ``./``-relative, so the folder is movable)::
 
     NAME.usd                 root layer (text): defaultPrim /NAME (Xform, kind = component,
-                             assetInfo, extentsHint), metersPerUnit 0.01, upAxis Y; references
-                             the material layer; variant set "lod" = high | medium | low, each
-                             variant payloads one geometry layer
+                             assetInfo, extentsHint per purpose), metersPerUnit 0.01, upAxis Y;
+                             references the material layer; variant set "lod" = high | medium |
+                             low, each variant payloads one geometry layer as /NAME/Geom
+                             (purpose render); /NAME/Proxy payloads the low one (purpose proxy)
     NAME_material.usda       /NAME/Materials/Feather (PavonineFeatherAPI, via
-                             pavonine.schemas.authoring) and /NAME/Materials/Rachis
-    NAME_geo_<lod>.usdc      /NAME/Geom/Vane and /NAME/Geom/Rachis meshes, bound to the materials
+                             pavonine.schemas.authoring; MaterialX network reading the maps;
+                             baked UsdPreviewSurface), /NAME/Materials/FeatherPortable (OpenPBR
+                             from the baked textures; baked UsdPreviewSurface) and
+                             /NAME/Materials/Rachis; the bindings of Geom and Proxy meshes
+    NAME_geo_<lod>.usdc      /NAME/Geom/Vane and /NAME/Geom/Rachis meshes
+    NAME.mtlx                the MaterialX document of the two feather materials, and
+    pavonine_feather.mtlx    Pavonine's node definition it includes
     maps/<map>.<ext>         the six maps as read: single-channel 16-bit PNG (half EXR for
                              float sources), RGB sources reduced to Rec. 709 luma
+    textures/*.png           the baked textures (pavonine.pipeline.bake.textures)
 
 The whole folder is first written beside its destination under a hidden temporary name and
 renamed into place only when complete (:func:`staging_folder`, :func:`commit_asset`).
@@ -33,12 +40,19 @@ from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.convert.mesh import MeshData
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.maps.io import DataMap, write_map
+from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
 
 LODS = ("high", "medium", "low")
+PROXY_LOD = "low"
 METERS_PER_UNIT = 0.01  # centimetres
 UP_AXIS = "Y"
-FEATHER_UV = "pavonine:featherUV"
-BARB_TANGENT = "pavonine:barbTangent"
+FEATHER_UV = FEATHER_UV_PRIMVAR
+BARB_TANGENT = BARB_TANGENT_PRIMVAR
+GEOM = "Geom"
+PROXY = "Proxy"
+#: Mesh name → the material it is bound to (the preview-purpose binding in brackets below).
+MESH_MATERIALS = {"Vane": "Feather", "Rachis": "Rachis"}
+PREVIEW_MATERIALS = {"Vane": "FeatherPortable"}
 #: Keratin-brown of the rachis (linear sRGB), a UsdPreviewSurface material.
 RACHIS_COLOR = (0.42, 0.33, 0.22)
 
@@ -56,6 +70,10 @@ class AssetNames:
     @property
     def material(self) -> str:
         return f"{self.name}_material.usda"
+
+    @property
+    def mtlx(self) -> str:
+        return f"{self.name}.mtlx"
 
     def geometry(self, lod: str) -> str:
         return f"{self.name}_geo_{lod}.usdc"
@@ -79,25 +97,22 @@ def _new_stage(path: Path, *, text: bool = False):
     return Usd.Stage.Open(layer)
 
 
-def write_geometry_layer(
-    path: Path, name: str, meshes: Sequence[MeshData], bindings: Mapping[str, str]
-) -> np.ndarray:
-    """Write one LOD's meshes (crate) under ``/NAME/Geom``; returns their joint extent.
+def write_geometry_layer(path: Path, name: str, meshes: Sequence[MeshData]) -> None:
+    """Write one LOD's meshes (crate) under ``/NAME/Geom``.
 
     Each mesh gets points, triangles, vertex normals, ``extent``, ``primvars:st`` (indexed,
-    face-varying: the xatlas atlas), ``primvars:pavonine:featherUV`` (float2, vertex: map
-    coordinates) and ``primvars:pavonine:barbTangent`` (vector3f, vertex: barb direction), and a
-    ``material:binding`` to ``bindings[mesh.name]``.
+    face-varying: the xatlas atlas), ``primvars:pavonine_featherUV`` (texCoord2f, vertex: map
+    coordinates) and ``primvars:pavonine_barbTangent`` (vector3f, vertex: barb direction). The
+    material layer binds them (the same layer is also the asset's proxy, at another path).
     """
-    from pxr import Sdf, UsdGeom, UsdShade, Vt
+    from pxr import Sdf, UsdGeom, Vt
 
     stage = _new_stage(path)
     root = UsdGeom.Xform.Define(stage, f"/{name}")
-    UsdGeom.Scope.Define(stage, f"/{name}/Geom")
+    UsdGeom.Scope.Define(stage, f"/{name}/{GEOM}")
     _layer_metadata(stage, name)
-    extents = []
     for mesh in meshes:
-        prim_path = f"/{name}/Geom/{mesh.name}"
+        prim_path = f"/{name}/{GEOM}/{mesh.name}"
         usd_mesh = UsdGeom.Mesh.Define(stage, prim_path)
         points = mesh.points.astype(np.float32)
         usd_mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
@@ -113,7 +128,6 @@ def write_geometry_layer(
         usd_mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
         extent = np.stack([points.min(axis=0), points.max(axis=0)])
         usd_mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(extent.astype(np.float32)))
-        extents.append(extent)
         primvars = UsdGeom.PrimvarsAPI(usd_mesh)
         st = primvars.CreatePrimvar(
             "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
@@ -121,49 +135,54 @@ def write_geometry_layer(
         st.Set(Vt.Vec2fArray.FromNumpy(mesh.st_values.astype(np.float32)))
         st.SetIndices(Vt.IntArray.FromNumpy(mesh.st_indices.astype(np.int32)))
         feather_uv = primvars.CreatePrimvar(
-            FEATHER_UV, Sdf.ValueTypeNames.Float2Array, UsdGeom.Tokens.vertex
+            FEATHER_UV, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
         )
         feather_uv.Set(Vt.Vec2fArray.FromNumpy(mesh.feather_uv.astype(np.float32)))
         tangent = primvars.CreatePrimvar(
             BARB_TANGENT, Sdf.ValueTypeNames.Vector3fArray, UsdGeom.Tokens.vertex
         )
         tangent.Set(Vt.Vec3fArray.FromNumpy(mesh.barb_tangent.astype(np.float32)))
-        binding = UsdShade.MaterialBindingAPI.Apply(usd_mesh.GetPrim())
-        binding.GetDirectBindingRel().SetTargets([Sdf.Path(bindings[mesh.name])])
-    extent = np.stack(
-        [np.min([e[0] for e in extents], axis=0), np.max([e[1] for e in extents], axis=0)]
-    )
     del root
     stage.GetRootLayer().Save()
-    return extent
 
 
 def write_material_layer(
-    path: Path, name: str, params: FeatherParameters, maps: Mapping[str, str]
-) -> dict[str, str]:
-    """Write the material layer; returns ``{mesh name: material path}`` for the bindings.
-
-    The feather material is authored by ``pavonine.schemas.authoring.create_feather_material``
-    (PavonineFeatherAPI + derived MaterialX and UsdPreviewSurface shaders), whose preview alpha
-    texture reads ``primvars:pavonine:featherUV``: the maps are in feather space, not the atlas ``st``.
-    """
+    path: Path,
+    name: str,
+    params: FeatherParameters,
+    maps: Mapping[str, str],
+    looks=None,
+) -> None:
+    """Write the material layer: the feather material (``PavonineFeatherAPI`` by
+    ``pavonine.schemas.authoring.create_feather_material``), with ``looks`` (a
+    :class:`pavonine.pipeline.shading.looks.Looks`) its MaterialX network, baked preview and
+    portable twin; the rachis material; and every mesh's binding, for ``Geom`` and ``Proxy``."""
     from pxr import Gf, Sdf, UsdGeom, UsdShade
 
     import pavonine  # noqa: F401  (registers the schema plugin before USD builds its registry)
+    from pavonine.pipeline.shading.usd import bind
     from pavonine.schemas import authoring
 
     stage = _new_stage(path, text=True)
     UsdGeom.Xform.Define(stage, f"/{name}")
     UsdGeom.Scope.Define(stage, f"/{name}/Materials")
     _layer_metadata(stage, name)
-    feather_path = f"/{name}/Materials/Feather"
-    material = authoring.create_feather_material(stage, feather_path, params, maps)
-    material.GetPrim().SetDocumentation(
-        "Peacock-feather barbules (Imamura et al.); maps are read at primvars:pavonine:featherUV."
+    materials_path = Sdf.Path(f"/{name}/Materials")
+    feather = authoring.create_feather_material(
+        stage, materials_path.AppendChild("Feather"), params, maps
     )
-    rachis_path = f"/{name}/Materials/Rachis"
+    feather.GetPrim().SetDocumentation(
+        "Peacock-feather barbules (Imamura et al.); maps are read at primvars:pavonine_featherUV."
+    )
+    materials = {"Feather": feather}
+    if looks is not None:
+        portable_path = materials_path.AppendChild("FeatherPortable")
+        materials["Feather"], materials["FeatherPortable"] = looks.author(
+            stage, feather.GetPath(), portable_path
+        )
+    rachis_path = materials_path.AppendChild("Rachis")
     rachis = UsdShade.Material.Define(stage, rachis_path)
-    shader = UsdShade.Shader.Define(stage, f"{rachis_path}/PreviewSurface")
+    shader = UsdShade.Shader.Define(stage, rachis_path.AppendChild("PreviewSurface"))
     shader.SetShaderId("UsdPreviewSurface")
     shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*RACHIS_COLOR))
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.55)
@@ -171,29 +190,30 @@ def write_material_layer(
     rachis.CreateSurfaceOutput().ConnectToSource(
         shader.CreateOutput("surface", Sdf.ValueTypeNames.Token)
     )
+    materials["Rachis"] = rachis
+    for scope in (GEOM, PROXY):
+        for mesh, material in MESH_MATERIALS.items():
+            prim = stage.OverridePrim(f"/{name}/{scope}/{mesh}")
+            preview = materials.get(PREVIEW_MATERIALS.get(mesh, ""))
+            bind(prim, materials[material], preview)
     stage.GetRootLayer().Save()
-    return {"Vane": feather_path, "Rachis": rachis_path}
 
 
-def write_root_layer(
-    path: Path, name: str, version: str, extent: np.ndarray, default_lod: str = "high"
-) -> None:
-    """Root layer: component model, assetInfo, the material reference and the ``lod`` variants."""
-    from pxr import Gf, Kind, Sdf, Usd, UsdGeom, Vt
+def write_root_layer(path: Path, name: str, version: str, default_lod: str = "high") -> None:
+    """Root layer: component model, assetInfo, the material reference, the ``lod`` variants
+    (``Geom``, purpose render) and the proxy (``Proxy``, the low LOD), and ``extentsHint``."""
+    from pxr import Kind, Sdf, Usd, UsdGeom
 
     names = AssetNames(name)
     stage = _new_stage(path, text=True)
     root = UsdGeom.Xform.Define(stage, f"/{name}")
     prim = root.GetPrim()
     _layer_metadata(stage, name)
-    Usd.ModelAPI(prim).SetKind(Kind.Tokens.component)
     model = Usd.ModelAPI(prim)
+    model.SetKind(Kind.Tokens.component)
     model.SetAssetName(name)
     model.SetAssetVersion(version)
     model.SetAssetIdentifier(Sdf.AssetPath(f"./{names.root}"))
-    UsdGeom.ModelAPI.Apply(prim).SetExtentsHint(
-        Vt.Vec3fArray([Gf.Vec3f(*map(float, extent[0])), Gf.Vec3f(*map(float, extent[1]))])
-    )
     prim.GetReferences().AddReference(f"./{names.material}")
     variant_set = prim.GetVariantSets().AddVariantSet("lod")
     for lod in LODS:
@@ -202,10 +222,39 @@ def write_root_layer(
         with variant_set.GetVariantEditContext():
             prim.GetPayloads().AddPayload(f"./{names.geometry(lod)}")
     variant_set.SetVariantSelection(default_lod)
+    geom = UsdGeom.Imageable(stage.OverridePrim(f"/{name}/{GEOM}"))
+    geom.CreatePurposeAttr(UsdGeom.Tokens.render)
+    proxy = UsdGeom.Scope.Define(stage, f"/{name}/{PROXY}")
+    proxy.GetPrim().GetPayloads().AddPayload(
+        Sdf.Payload(f"./{names.geometry(PROXY_LOD)}", Sdf.Path(f"/{name}/{GEOM}"))
+    )
+    proxy.CreatePurposeAttr(UsdGeom.Tokens.proxy)
+    geom.GetProxyPrimRel().SetTargets([proxy.GetPath()])
     stage.GetRootLayer().documentation = (
-        f"Pavonine feather asset {name!r}: vane + rachis, three LODs, PavonineFeatherAPI material."
+        f"Pavonine feather asset {name!r}: vane + rachis, three LODs (the low one also the "
+        "proxy), PavonineFeatherAPI material with baked textures and MaterialX twins."
     )
     stage.GetRootLayer().Save()
+    set_extents_hint(path, name)
+
+
+def set_extents_hint(root_path: Path, name: str) -> None:
+    """Author ``extentsHint`` on the model from its composed bounds, one box per purpose
+    (``UsdGeom.ModelAPI.ComputeExtentsHint``), so ``drawMode`` cards and bounds need no payload."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(root_path))
+    prim = stage.GetPrimAtPath(f"/{name}")
+    purposes = UsdGeom.Imageable.GetOrderedPurposeTokens()
+    cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), purposes, useExtentsHint=False)
+    model = UsdGeom.ModelAPI.Apply(prim)
+    model.SetExtentsHint(model.ComputeExtentsHint(cache))
+    stage.GetRootLayer().Save()
+
+
+def map_paths(maps: Mapping[str, DataMap]) -> dict[str, str]:
+    """The ``./maps/<name><ext>`` asset paths :func:`write_maps` writes the maps to."""
+    return {key: f"./maps/{key}{data.suffix}" for key, data in maps.items()}
 
 
 def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
@@ -216,11 +265,13 @@ def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
     validator, DCC) sees one channel whatever the source file had: 16-bit PNG, or half-float
     EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.maps.io.write_map`).
     """
-    out = {}
+    out = map_paths(maps)
     for key, data in maps.items():
-        target = folder / "maps" / f"{key}{data.suffix}"
-        write_map(target, data.values, description=f"pavonine {key} map (paper section 3.3)")
-        out[key] = f"./maps/{target.name}"
+        write_map(
+            folder / out[key][2:],
+            data.values,
+            description=f"pavonine {key} map (paper section 3.3)",
+        )
     return out
 
 
@@ -301,13 +352,17 @@ def write_asset(
     params: FeatherParameters,
     maps: Mapping[str, DataMap],
     lods: Mapping[str, Sequence[MeshData]],
+    looks=None,
 ) -> Path:
-    """Write every layer of the asset into ``folder`` (a staging folder); returns the root."""
+    """Write every layer of the asset into ``folder`` (a staging folder); returns the root.
+
+    ``looks`` (:class:`pavonine.pipeline.shading.looks.Looks`, after it wrote its files into
+    ``folder``) adds the MaterialX networks and the baked previews.
+    """
     names = AssetNames(name)
-    maps = write_maps(maps, folder)
-    bindings = write_material_layer(folder / names.material, name, params, maps)
-    extents = {}
+    map_paths = write_maps(maps, folder)
+    write_material_layer(folder / names.material, name, params, map_paths, looks)
     for lod in LODS:
-        extents[lod] = write_geometry_layer(folder / names.geometry(lod), name, lods[lod], bindings)
-    write_root_layer(folder / names.root, name, version, extents["high"])
+        write_geometry_layer(folder / names.geometry(lod), name, lods[lod])
+    write_root_layer(folder / names.root, name, version)
     return folder / names.root

@@ -3,7 +3,8 @@
 One recipe runs the stages
 
     maps → mesh (silhouette-cut vane, rachis) → atlas (xatlas, coarse) →
-    refine+displace (high LOD) → lods (medium, low: refine + quadric decimation) → write
+    refine+displace (high LOD) → lods (medium, low: refine + quadric decimation) →
+    bake (textures over the atlas, MaterialX document) → write
 
 and its asset appears atomically. Many recipes run in worker processes (``jobs``); one
 failing recipe does not stop the others and the summary names each failure.
@@ -22,7 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.materials.parameters import ParameterError
-from pavonine.pipeline.convert.asset import LODS, check_outdir, staging_folder, write_asset
+from pavonine.pipeline.convert.asset import (
+    LODS,
+    check_outdir,
+    map_paths,
+    staging_folder,
+    write_asset,
+)
 from pavonine.pipeline.convert.mesh import (
     RACHIS_SHARE,
     FeatherFrame,
@@ -35,8 +42,9 @@ from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.maps.io import DataMap, read_data_map
 from pavonine.pipeline.maps.paint import MAP_NAMES
+from pavonine.pipeline.shading.looks import Looks
 
-STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "write")
+STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "bake", "write")
 
 #: Two maps have "equal aspect" when width/height differ by less than this fraction.
 ASPECT_TOLERANCE = 0.01
@@ -130,6 +138,7 @@ def build_meshes(
                 opts.alpha_threshold,
                 base_triangles_for(opts.base_triangles, opts.lod.high),
                 rachis_triangles=round(RACHIS_SHARE * opts.lod.low),
+                low_triangles=opts.lod.low,
             )
         except ValueError as exc:
             raise InputError(f"{recipe.maps['alpha']}: maps.alpha", str(exc)) from None
@@ -176,10 +185,23 @@ def convert_recipe(
     check_outdir(outdir)
     with timer.stage("maps"):
         maps = load_maps(recipe)
-    lods = build_meshes(recipe, {name: data.values for name, data in maps.items()}, timer)
-    with timer.stage("write"), staging_folder(outdir, recipe.name, force) as folder:
+    values = {name: data.values for name, data in maps.items()}
+    lods = build_meshes(recipe, values, timer)
+    with staging_folder(outdir, recipe.name, force) as folder:
         try:
-            write_asset(folder, recipe.name, recipe.version, recipe.material, maps, lods)
+            with timer.stage("bake"):
+                vane = next(mesh for mesh in lods["high"] if mesh.name == "Vane")
+                looks = Looks.bake(
+                    folder,
+                    recipe.name,
+                    vane,
+                    values,
+                    map_paths(maps),
+                    recipe.material,
+                    recipe.bake.resolution,
+                )
+            with timer.stage("write"):
+                write_asset(folder, recipe.name, recipe.version, recipe.material, maps, lods, looks)
         except ParameterError as exc:
             raise InputError(f"{recipe.path}: {parameter_key(exc.field)}", exc.reason) from None
     result.root = target / f"{recipe.name}.usd"

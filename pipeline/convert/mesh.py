@@ -30,11 +30,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pymeshlab
-import xatlas
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from pavonine.pipeline.convert.atlas import (
+    AtlasedMesh,
+    build_atlas,
+    chart_pieces,
+    cut_edges,
+    piece_count,
+    st_flips,
+)
 from pavonine.pipeline.maps.io import sample_bilinear
 
 #: Smallest fraction of an edge at which the silhouette may cut it (keeps triangles fat).
@@ -313,55 +320,6 @@ def rachis_positions(
     return points, tangent
 
 
-# --------------------------------------------------------------------------- atlas
-
-
-@dataclass
-class AtlasedMesh:
-    """A coarse mesh with its xatlas atlas.
-
-    ``attributes``: per *welded* vertex (float, any width). ``faces``: welded indices.
-    ``split_faces``: the same faces in atlas (seam-split) indices; ``split_to_welded`` maps an
-    atlas vertex to its welded vertex; ``st``: per atlas vertex.
-    """
-
-    attributes: np.ndarray
-    faces: np.ndarray
-    split_faces: np.ndarray
-    split_to_welded: np.ndarray
-    st: np.ndarray
-
-
-def build_atlas(
-    meshes: list[tuple[np.ndarray, np.ndarray, np.ndarray]], resolution: int = 2048
-) -> tuple[list[AtlasedMesh], int]:
-    """Chart and pack ``(points3d, faces, attributes)`` meshes into one shared xatlas atlas.
-
-    ``st`` is scaled uniformly (texels stay square) into [0, 1]², the longer side spanning it.
-    Returns the atlased meshes and the chart count.
-    """
-    atlas = xatlas.Atlas()
-    for points, faces, _ in meshes:
-        atlas.add_mesh(points.astype(np.float32), faces.astype(np.uint32))
-    chart_options = xatlas.ChartOptions()
-    pack_options = xatlas.PackOptions()
-    pack_options.resolution = resolution
-    pack_options.padding = 4
-    pack_options.bilinear = True
-    atlas.generate(chart_options, pack_options)
-    scale = np.array([atlas.width, atlas.height], dtype=np.float64) / max(atlas.width, atlas.height)
-    result = []
-    for i, (_, faces, attributes) in enumerate(meshes):
-        vmapping, indices, uvs = atlas[i]
-        split_faces = indices.astype(np.int64)
-        mapping = vmapping.astype(np.int64)
-        if not np.array_equal(mapping[split_faces], faces):
-            raise RuntimeError("xatlas reordered faces; cannot carry attributes")
-        st = uvs.astype(np.float64) * scale
-        result.append(AtlasedMesh(attributes, faces, split_faces, mapping, st))
-    return result, atlas.chart_count
-
-
 # --------------------------------------------------------------------------- refinement
 
 
@@ -610,10 +568,13 @@ def build_base(
     threshold: float,
     base_triangles: int,
     rachis_triangles: int = 200,
+    low_triangles: int | None = None,
 ) -> tuple[FeatherGeometry, float]:
     """Coarse vane + rachis, atlased together. Returns the geometry and the atlas time (s).
 
     ``rachis_triangles``: the coarse rachis' budget (the lowest LOD's share), 6 sides around.
+    ``low_triangles``: the lowest LOD's target, which bounds how many pieces the vane is cut
+    into for the atlas (:func:`vane_piece_count`).
     """
     import time
 
@@ -623,9 +584,17 @@ def build_base(
     rings = int(np.clip(round(rachis_triangles / (2 * sides)), 4, 48))
     coords, rachis_faces = base_rachis(rachis, frame, rings=rings, sides=sides)
     rachis_points, _ = rachis_positions(rachis, frame, coords)
+    width = float(np.ptp(vane_points[:, 0]))
+    low_vane = (1.0 - RACHIS_SHARE) * (low_triangles or len(faces))
+    pieces = [
+        chart_pieces(uv[:, 1], faces, vane_piece_count(uv, faces, vane_points, low_vane)),
+        chart_pieces(
+            coords[:, 0], rachis_faces, piece_count(float(np.ptp(rachis_points[:, 1])), width)
+        ),
+    ]
     start = time.perf_counter()
     (vane, rachis_mesh), charts = build_atlas(
-        [(vane_points, faces, uv), (rachis_points, rachis_faces, coords)]
+        [(vane_points, faces, uv), (rachis_points, rachis_faces, coords)], pieces=pieces
     )
     atlas_seconds = time.perf_counter() - start
     barb = barb_direction_field(displacement)
@@ -633,6 +602,28 @@ def build_base(
         frame, rachis, vane, rachis_mesh, displacement, barb, displacement_cm, charts
     )
     return geometry, atlas_seconds
+
+
+#: Boundary vertices (silhouette and seams, all locked by decimation) the lowest LOD's vane may
+#: have, as a share of its triangle target: quadric collapse with a locked boundary cannot go
+#: much below one triangle per boundary vertex without folding the atlas.
+LOW_LOD_BOUNDARY_SHARE = 0.5
+
+
+def vane_piece_count(
+    uv: np.ndarray, faces: np.ndarray, points: np.ndarray, low_vane_triangles: float
+) -> int:
+    """Bands the coarse vane is cut into for the atlas: as many as :func:`piece_count` asks
+    for (pieces no longer than half the vane's width), but no more than keep the lowest LOD's
+    boundary (silhouette + both sides of every seam, multiplied by its refinement) within
+    ``LOW_LOD_BOUNDARY_SHARE`` of its target."""
+    wanted = piece_count(float(np.ptp(points[:, 1])), float(np.ptp(points[:, 0])))
+    refinement = subdivision_for(len(faces), 2.0 * low_vane_triangles)
+    for count in range(wanted, 1, -1):
+        silhouette, seams = cut_edges(faces, chart_pieces(uv[:, 1], faces, count))
+        if (silhouette + 2 * seams) * refinement <= LOW_LOD_BOUNDARY_SHARE * low_vane_triangles:
+            return count
+    return 1
 
 
 def _vane_mesh(geo: FeatherGeometry, refined: RefinedMesh, spacing: float) -> MeshData:
@@ -705,12 +696,29 @@ def build_lod(geo: FeatherGeometry, target: int, decimate: bool) -> list[MeshDat
     vane = _vane_mesh(geo, refine(geo.vane, n_vane), _spacing(geo, n_vane))
     rachis = _rachis_mesh(geo, refine(geo.rachis_mesh, n_rachis))
     if decimate:
-        decimated = decimate_mesh(vane, round(vane_target))
-        if decimated is None:  # the collapse folded the atlas: fall back to plain refinement
+        decimated = decimate_towards(vane, round(vane_target))
+        if decimated is None:  # every collapse folded the atlas: fall back to plain refinement
             n_vane = subdivision_for(len(geo.vane.faces), vane_target)
             decimated = _vane_mesh(geo, refine(geo.vane, n_vane), _spacing(geo, n_vane))
         vane = decimated
     return [vane, rachis]
+
+
+def decimate_towards(mesh: MeshData, target: int) -> MeshData | None:
+    """:func:`decimate_mesh` to ``target``; when that folds the atlas, halve the count step by
+    step instead and keep the last step that did not (the closest valid mesh above the
+    target). ``None`` when not even the first halving is valid."""
+    direct = decimate_mesh(mesh, target)
+    if direct is not None or mesh.triangle_count <= target:
+        return direct
+    best = None
+    current = mesh
+    while current.triangle_count > target:
+        step = decimate_mesh(current, max(target, current.triangle_count // 2))
+        if step is None or step.triangle_count >= current.triangle_count:
+            break
+        best = current = step
+    return best
 
 
 def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
@@ -718,8 +726,10 @@ def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
 
     The mesh is handed to meshlab split along its atlas seams, so seams and the silhouette
     are boundaries, which ``preserveboundary`` locks; ``optimalplacement=False`` keeps each
-    surviving vertex where it was. A vertex's source index rides along as a custom attribute,
-    so feather UV, ``st``, height and barb tangent are copied, not re-interpolated.
+    surviving vertex where it was; ``autoclean=False`` because its clean-up merges the
+    coincident vertices on either side of a seam, joining two charts (their ``st`` folds). A
+    vertex's source index rides along as a custom attribute, so feather UV, ``st``, height and
+    barb tangent are copied, not re-interpolated.
     Returns ``None`` when the result would fold the atlas (a triangle flipped in ``st``
     against the rest of its chart).
     """
@@ -747,7 +757,7 @@ def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
         preservetopology=True,
         planarquadric=True,
         qualitythr=0.3,
-        autoclean=True,
+        autoclean=False,
     )
     out = ms.current_mesh()
     source = np.rint(out.vertex_custom_scalar_attribute_array("source")).astype(np.int64)
@@ -791,25 +801,6 @@ def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
 # --------------------------------------------------------------------------- checks
 
 
-def st_flips(st_values: np.ndarray, split_faces: np.ndarray) -> int:
-    """Triangles whose ``st`` winding disagrees with the majority of their chart (a fold).
-
-    Charts are the connected pieces of the seam-split mesh; xatlas may mirror a whole chart,
-    so only disagreement *within* a chart counts. Degenerate ``st`` triangles count too.
-    """
-    tri = st_values[split_faces]
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    sign = np.sign(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    n = len(st_values)
-    rows = np.repeat(np.arange(len(split_faces)), 3)
-    incidence = coo_matrix((np.ones(rows.size), (rows, split_faces.ravel())), shape=(len(tri), n))
-    _, labels = connected_components(incidence.T @ incidence, directed=False)
-    chart = labels[split_faces[:, 0]]
-    votes = np.bincount(chart, weights=sign)
-    majority = np.where(votes[chart] >= 0, 1.0, -1.0)
-    return int(np.sum(sign != majority))
-
-
 def edge_report(faces: np.ndarray, n_vertices: int) -> dict[str, int]:
     """Topology check: non-manifold edges (> 2 faces), inconsistently oriented edges and
     non-manifold vertices (a vertex whose faces form more than one fan)."""
@@ -844,56 +835,3 @@ def edge_report(faces: np.ndarray, n_vertices: int) -> dict[str, int]:
         "misoriented_edges": int(np.sum(dcounts > 1)),
         "non_manifold_vertices": int(np.sum(fans_per_vertex > 1)),
     }
-
-
-def st_overlap_fraction(st_face_varying: np.ndarray, resolution: int = 1024) -> float:
-    """Share of covered texels (pixel centres) that more than one ``st`` triangle covers.
-
-    0 for a valid atlas. Orientation is free (xatlas may mirror a chart); a fold inside a
-    chart shows up as double coverage.
-    """
-    tri = st_face_varying.reshape(-1, 3, 2) * resolution
-    e1 = tri[:, 1] - tri[:, 0]
-    e2 = tri[:, 2] - tri[:, 0]
-    orientation = np.sign(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    coverage = np.zeros((resolution, resolution), dtype=np.int32)
-    lo = np.floor(tri.min(axis=1) - 0.5).astype(np.int64)
-    hi = np.ceil(tri.max(axis=1) - 0.5).astype(np.int64)
-    span = (hi - lo).max(axis=1) + 1
-    # Rasterise in buckets of similar size: every triangle tests the pixel centres of a
-    # bucket-sized square at its lower corner, vectorised over the triangles of the bucket.
-    bucket = 4
-    done = np.zeros(len(tri), dtype=bool)
-    for big in np.nonzero(span > 32)[0]:
-        done[big] = True
-        ys, xs = np.mgrid[lo[big, 1] : hi[big, 1] + 1, lo[big, 0] : hi[big, 0] + 1]
-        cx, cy = xs + 0.5, ys + 0.5
-        inside = np.full(xs.shape, orientation[big] != 0)
-        for k in range(3):
-            a, b = tri[big, k], tri[big, (k + 1) % 3]
-            edge = (b[0] - a[0]) * (cy - a[1]) - (b[1] - a[1]) * (cx - a[0])
-            inside &= edge * orientation[big] > 0
-        inside &= (xs >= 0) & (ys >= 0) & (xs < resolution) & (ys < resolution)
-        coverage[ys[inside], xs[inside]] += 1
-    while not done.all():
-        members = np.nonzero(~done & (span <= bucket))[0]
-        done[members] = True
-        t, o, low = tri[members], orientation[members], lo[members]
-        for dy in range(bucket):
-            for dx in range(bucket):
-                px = low[:, 0] + dx
-                py = low[:, 1] + dy
-                cx, cy = px + 0.5, py + 0.5
-                inside = o != 0
-                for k in range(3):
-                    a, b = t[:, k], t[:, (k + 1) % 3]
-                    edge = (b[:, 0] - a[:, 0]) * (cy - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
-                        cx - a[:, 0]
-                    )
-                    inside &= edge * o > 0
-                ok = inside & (px >= 0) & (py >= 0) & (px < resolution) & (py < resolution)
-                np.add.at(coverage, (py[ok], px[ok]), 1)
-        bucket *= 2
-    covered = np.count_nonzero(coverage)
-    overlapped = np.count_nonzero(coverage > 1)
-    return overlapped / max(covered, 1)

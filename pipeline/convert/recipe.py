@@ -58,6 +58,17 @@ class GeometryOptions:
     lod: LodTargets = field(default_factory=LodTargets)
 
 
+#: Bake resolutions a recipe may ask for (texels along each side of the square atlas).
+BAKE_RESOLUTION_RANGE = (16, 8192)
+
+
+@dataclass(frozen=True)
+class BakeOptions:
+    """Baking options of a recipe (``[bake]``)."""
+
+    resolution: int = 1024  # texels along each side of the baked textures
+
+
 @dataclass(frozen=True)
 class Recipe:
     """A parsed, checked feather recipe. Map paths are absolute."""
@@ -69,6 +80,7 @@ class Recipe:
     geometry: GeometryOptions
     version: str = "1.0"
     preset_name: str = "paper-table1"
+    bake: BakeOptions = field(default_factory=BakeOptions)
 
     @property
     def label(self) -> str:
@@ -324,7 +336,7 @@ def parse_recipe(path: str | os.PathLike) -> Recipe:
         raise InputError(str(path), f"not valid TOML ({exc})") from None
     except OSError as exc:
         raise InputError(str(path), f"cannot read ({exc.strerror})") from None
-    _check_keys(path, data, {"name", "version", "maps", "material", "geometry"}, "")
+    _check_keys(path, data, {"name", "version", "maps", "material", "geometry", "bake"}, "")
     if "name" not in data:
         raise _fail(path, "name", 'missing (the asset\'s name, e.g. name = "eye_feather")')
     name = data["name"]
@@ -355,4 +367,18 @@ def parse_recipe(path: str | os.PathLike) -> Recipe:
     if not isinstance(geometry_table, dict):
         raise _fail(path, "geometry", "expected a table [geometry]")
     geometry = _parse_geometry(path, geometry_table)
-    return Recipe(path, name, maps, params, geometry, version, preset_name)
+    return Recipe(path, name, maps, params, geometry, version, preset_name, _parse_bake(path, data))
+
+
+def _parse_bake(path: Path, data: dict) -> BakeOptions:
+    table = data.get("bake", {})
+    if not isinstance(table, dict):
+        raise _fail(path, "bake", "expected a table [bake]")
+    _check_keys(path, table, {"resolution"}, "bake.")
+    if "resolution" not in table:
+        return BakeOptions()
+    value = int(_number(path, "bake.resolution", table["resolution"], integer=True))
+    low, high = BAKE_RESOLUTION_RANGE
+    if not low <= value <= high:
+        raise _fail(path, "bake.resolution", f"must lie in [{low}, {high}] texels, got {value}")
+    return BakeOptions(value)

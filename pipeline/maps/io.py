@@ -133,3 +133,13 @@ def sample_bilinear(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:
     cols = uv[:, 0] * width - 0.5
     rows = (1.0 - uv[:, 1]) * height - 0.5
     return ndimage.map_coordinates(values, [rows, cols], order=1, mode="nearest").astype(np.float32)
+
+
+def sample_nearest(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:
+    """The texel under each feather-space point (no filtering; see :func:`sample_bilinear` for
+    the convention): how class maps are read, so that a lookup never blends two classes."""
+    height, width = values.shape
+    uv = np.asarray(feather_uv, dtype=np.float64)
+    cols = np.clip(np.floor(uv[:, 0] * width), 0, width - 1).astype(np.int64)
+    rows = np.clip(np.floor((1.0 - uv[:, 1]) * height), 0, height - 1).astype(np.int64)
+    return values[rows, cols].astype(np.float32)

@@ -1,0 +1,227 @@
+"""The model's appearance per texel: base colour under the reference light and view, and a
+thin-film stand-in (thickness, index, weight) with a roughness, for non-spectral viewers.
+
+**Reference illumination and view** (in the asset's object space, where the vane's iridescent
+front faces +Z, +X is the feather's right and +Y runs up the shaft): a CIE D65 distant light (the
+white of Pavonine's spectral renderer) from ``(sin 25°, 0, cos 25°)``, 25° off the front toward
+the right, and the viewer straight in front, along +Z: the shipped scene
+``assets/scenes/eye_feather_sun.usda`` (its sun; its camera looks at the feather face-on) and,
+within a degree, ``pavonine render``'s default sun for a bare asset. Each texel sees them in its
+own frame: its interpolated normal, its barbule axis (the barb direction turned by the angle
+map), so the feather's curvature and its barbules' directions are in the bake.
+
+**Base colour** is the reflectance factor ``π f(ω_i, ω_o)`` there (a white diffuser reads 1) as
+linear Rec. 709 under D65: a Lambertian surface of that albedo returns exactly the model's
+radiance in the reference configuration. It is ``w·S + (1 − w)·M`` with ``w`` the melanin map's
+structural share, ``S`` the structural colour and ``M`` the melanin brown. ``S`` is the BRDF of
+:mod:`pavonine.materials.brdf` evaluated per texel and wavelength (380–780 nm, 10 nm) exactly as
+the renderer's feather BSDF does (``pavonine.render.feather_bsdf.JitMaterial``, JIT-compiled by
+Dr.Jit; a NumPy fallback through ``pavonine.materials.optics.model_for(params).brdf`` where no
+LLVM variant is available), whatever the model's interference mode. Colours outside the sRGB
+gamut are clipped to it.
+
+**Thin film.** Index: the rod layer's effective index ``n_eff = n_0 + f·(n_ml − n_0)``,
+``f = π a / (2 d)`` (Eq. 1), of the two barbule axes weighted by ``cos²ψ : sin²ψ`` of the
+reference half-vector (Eq. 7). Thickness: ``t = ¾ λ_peak / n_eff``, the film whose first-order
+reflection peak (``2 n t = (m + ½) λ``, ``m = 1``: one π shift, at the air/film interface, as in
+``materials/pavonine_feather.mtlx``) falls on the texel's peak wavelength ``λ_peak`` of ``S``.
+Weight: the structural share ``w``. Roughness: the preview's GGX roughness of the crescent
+spread (``pavonine.schemas.authoring.preview_roughness``) where the colour is structural, 1 where
+it is melanin: ``w·r + (1 − w)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from pavonine.materials import colour, optics
+from pavonine.materials.parameters import FeatherParameters
+from pavonine.pipeline.bake.texels import SurfaceTexels
+from pavonine.pipeline.maps.io import sample_bilinear, sample_nearest
+from pavonine.pipeline.maps.paint import ocellar_class
+
+#: Reference light: degrees off the front (+Z) toward the right (+X).
+REFERENCE_INCIDENCE_DEG = 25.0
+REFERENCE_LIGHT = np.array(
+    [
+        math.sin(math.radians(REFERENCE_INCIDENCE_DEG)),
+        0.0,
+        math.cos(math.radians(REFERENCE_INCIDENCE_DEG)),
+    ]
+)
+REFERENCE_VIEW = np.array([0.0, 0.0, 1.0])
+#: Wavelengths of the per-texel spectra (nm): CIE 15's 10 nm grid over the visible.
+WAVELENGTHS_NM = np.arange(380.0, 781.0, 10.0)
+#: Thin-film order whose peak is matched: 2 n t = (m + ½) λ.
+FILM_ORDER = 1
+#: Lanes (texels × wavelengths) per Dr.Jit evaluation.
+LANES = 1 << 24
+#: Gradation steps of the NumPy fallback (texels are grouped by class and gradation step).
+FALLBACK_STEPS = 64
+
+
+@dataclass
+class TexelAppearance:
+    """Per covered texel: ``base_color`` (linear Rec. 709, clipped to [0, 1]), ``alpha``,
+    ``roughness``, film ``thickness_nm``, ``film_ior`` and ``film_weight``."""
+
+    base_color: np.ndarray
+    alpha: np.ndarray
+    roughness: np.ndarray
+    thickness_nm: np.ndarray
+    film_ior: np.ndarray
+    film_weight: np.ndarray
+
+
+@dataclass
+class Structure:
+    """Per texel: structural reflectance factor spectra ``π f`` (``(n, len(WAVELENGTHS_NM))``)
+    and the long and short axes' stacks as ``(interval_nm, radius_nm)`` arrays."""
+
+    spectra: np.ndarray
+    long: tuple[np.ndarray, np.ndarray]
+    short: tuple[np.ndarray, np.ndarray]
+
+
+def barbule_frames(texels: SurfaceTexels, angle_grey: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)`` rows x (barbule long axis), y = n × x, n: the barb direction turned by
+    ``angle_grey · 180°`` counter-clockwise about the normal (seen from the front), as the
+    feather BSDF reads the angle map."""
+    turn = math.pi * np.asarray(angle_grey, dtype=np.float64)
+    side = np.cross(texels.normal, texels.barb)
+    x = np.cos(turn)[:, None] * texels.barb + np.sin(turn)[:, None] * side
+    return np.stack([x, np.cross(texels.normal, x), texels.normal], axis=1)
+
+
+def structure(
+    params: FeatherParameters, k: np.ndarray, t: np.ndarray, wi: np.ndarray, wo: np.ndarray
+) -> Structure:
+    """The structural BRDF per texel (class ``k``, gradation ``t``, barbule-frame ``wi``/``wo``)
+    at :data:`WAVELENGTHS_NM`, through the renderer's JIT path or the NumPy model."""
+    from pavonine.backend import select_variant
+
+    try:
+        variant = select_variant().variant
+    except ImportError:  # no Mitsuba: `pip install pavonine[convert]` without [render]
+        variant = None
+    if variant is not None and variant.startswith("llvm_"):
+        return _structure_jit(params, k, t, wi, wo)
+    return _structure_numpy(params, k, t, wi, wo)
+
+
+def _structure_jit(params, k, t, wi, wo) -> Structure:
+    import drjit as dr
+    import mitsuba as mi
+
+    from pavonine.render.feather_bsdf import JitMaterial
+
+    material = JitMaterial(params)
+    n, count = len(k), len(WAVELENGTHS_NM)
+    spectra = np.empty((n, count), dtype=np.float64)
+    stacks = np.empty((n, 4), dtype=np.float64)
+    table = mi.Float(WAVELENGTHS_NM.astype(np.float32))
+    step = max(1, LANES // count)
+    for start in range(0, n, step):
+        end = min(n, start + step)
+        # One lane per (texel, wavelength): texel data are gathered inside the kernel.
+        lane = dr.arange(mi.UInt32, (end - start) * count)
+        texel, band = lane // count, lane % count
+
+        def per_lane(values: np.ndarray, kind=mi.Float, s=start, e=end, index=texel):
+            return dr.gather(kind, kind(np.ascontiguousarray(values[s:e])), index)
+
+        long_stack, short_stack = material.stacks(
+            per_lane(k.astype(np.uint32), mi.UInt32), per_lane(t.astype(np.float32))
+        )
+        directions = [
+            mi.Vector3f(*(per_lane(v[:, i].astype(np.float32)) for i in range(3))) for v in (wi, wo)
+        ]
+        wavelengths = dr.gather(mi.Float, table, band)
+        value = material.brdf(*directions, wavelengths, long_stack, short_stack, mi.Float(1.0))
+        first = dr.arange(mi.UInt32, end - start) * count
+        per_texel = [dr.gather(mi.Float, q, first) for q in (*long_stack[:2], *short_stack[:2])]
+        dr.eval(value, *per_texel)
+        spectra[start:end] = math.pi * np.asarray(value, dtype=np.float64).reshape(-1, count)
+        stacks[start:end] = np.stack([np.asarray(q) for q in per_texel], axis=1)
+    return Structure(spectra, (stacks[:, 0], stacks[:, 1]), (stacks[:, 2], stacks[:, 3]))
+
+
+def _structure_numpy(params, k, t, wi, wo) -> Structure:
+    model = optics.model_for(params)
+    steps = np.rint(np.clip(t, 0.0, 1.0) * FALLBACK_STEPS).astype(np.int64)
+    spectra = np.empty((len(k), len(WAVELENGTHS_NM)))
+    stacks = np.empty((len(k), 4))
+    for key in np.unique(k * (FALLBACK_STEPS + 1) + steps):
+        klass, step = divmod(int(key), FALLBACK_STEPS + 1)
+        group = (k == klass) & (steps == step)
+        gradation = step / FALLBACK_STEPS
+        f = model.brdf(wi[group, None, :], wo[group, None, :], WAVELENGTHS_NM, klass, gradation)
+        spectra[group] = math.pi * f
+        long_nm, short_nm = model.stacks_nm(klass, gradation)
+        stacks[group] = (*long_nm[:2], *short_nm[:2])
+    return Structure(spectra, (stacks[:, 0], stacks[:, 1]), (stacks[:, 2], stacks[:, 3]))
+
+
+def effective_index(params: FeatherParameters, interval_nm, radius_nm) -> np.ndarray:
+    """``n_eff = D / d`` of a rod layer (Eq. 1)."""
+    distance = optics.optical_distance(
+        interval_nm, radius_nm, params.melanin_index, params.medium_index
+    )
+    return distance / interval_nm
+
+
+def texel_appearance(
+    texels: SurfaceTexels,
+    maps: Mapping[str, np.ndarray],
+    params: FeatherParameters,
+    roughness: float,
+) -> TexelAppearance:
+    """The appearance of every covered texel from the six maps (module docstring).
+
+    ``maps``: grey images ``[row, column]`` in [0, 1] keyed by map name (a missing map is
+    uniform: alpha 1, class 0, gradation 0, angle 0, structural share 1). ``roughness``: the
+    structural part's GGX roughness.
+    """
+    uv = texels.feather_uv
+    n = len(uv)
+
+    def bilinear(name: str, default: float) -> np.ndarray:
+        values = maps.get(name)
+        grey = np.full(n, default) if values is None else sample_bilinear(values, uv)
+        return np.clip(grey, 0.0, 1.0).astype(np.float64)
+
+    grey = maps.get("ocellar")
+    k = np.zeros(n, dtype=np.int64)
+    if grey is not None:
+        k = ocellar_class(sample_nearest(grey, uv), classes=len(params.classes)).astype(np.int64)
+    share = bilinear("melanin", 1.0)
+    frames = barbule_frames(texels, bilinear("angle", 0.0))
+    wi = frames @ REFERENCE_LIGHT
+    wo = frames @ REFERENCE_VIEW
+    found = structure(params, k, bilinear("gradation", 0.0), wi, wo)
+    structural = colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, found.spectra)
+    melanin = optics.model_for(params).brdf(
+        REFERENCE_LIGHT, REFERENCE_VIEW, WAVELENGTHS_NM, 0, 0.0, structural_share=0.0
+    )
+    melanin_rgb = colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, math.pi * melanin)
+    base = share[:, None] * structural + (1.0 - share[:, None]) * melanin_rgb
+    # Eq. 7's weight of the long axis at the reference half-vector: cos²ψ = h_x² / (h_x² + h_y²).
+    h = wi + wo
+    across = h[:, 0] ** 2 + h[:, 1] ** 2
+    cos2_psi = np.where(across > 1e-12, h[:, 0] ** 2 / np.maximum(across, 1e-12), 0.5)
+    film_ior = cos2_psi * effective_index(params, *found.long) + (1.0 - cos2_psi) * effective_index(
+        params, *found.short
+    )
+    peak = WAVELENGTHS_NM[np.argmax(found.spectra, axis=1)]
+    return TexelAppearance(
+        base_color=np.clip(base, 0.0, 1.0),
+        alpha=bilinear("alpha", 1.0),
+        roughness=share * roughness + (1.0 - share),
+        thickness_nm=(FILM_ORDER + 0.5) * peak / (2.0 * film_ior),
+        film_ior=film_ior,
+        film_weight=share,
+    )

@@ -1,0 +1,255 @@
+"""``pavonine bake``: re-bake an existing feather asset in place.
+
+For every ``PavonineFeatherAPI`` material under the asset's default prim: the meshes bound to
+it (render and default purpose, the ``lod`` variant set to ``high`` when there is one) are read
+back into :class:`~pavonine.pipeline.convert.mesh.MeshData`, its maps through USD's asset
+resolver, and :class:`~pavonine.pipeline.shading.looks.Looks` bakes the textures, writes the
+MaterialX document and re-authors the materials in the layer that defines the feather material
+(each file written atomically; the layer saved by rename).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pavonine.pipeline.convert.asset import BARB_TANGENT, FEATHER_UV
+from pavonine.pipeline.convert.mesh import MeshData
+from pavonine.pipeline.errors import InputError
+
+PORTABLE_SUFFIX = "Portable"  # Feather → FeatherPortable, as pavonine convert names it
+
+
+@dataclass
+class BakeReport:
+    """What :func:`bake_asset` did: per feather material its meshes and written files."""
+
+    asset: str
+    resolution: int
+    materials: list[dict] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {"asset": self.asset, "resolution": self.resolution, "materials": self.materials}
+
+
+def root_layer_path(asset: str | os.PathLike) -> Path:
+    """The asset's root layer: ``asset`` itself, or ``<folder>/<folder name>.usd``."""
+    path = Path(asset)
+    if path.is_dir():
+        path = path / f"{path.name}.usd"
+    if not path.is_file():
+        raise InputError(str(path), "no such USD file")
+    return path
+
+
+def _primvar(mesh_prim, name: str, interpolations: tuple[str, ...]) -> np.ndarray:
+    from pxr import UsdGeom
+
+    primvar = UsdGeom.PrimvarsAPI(mesh_prim).GetPrimvar(name)
+    where = f"{mesh_prim.GetPath()}: primvars:{name}"
+    if not primvar or not primvar.HasValue():
+        raise InputError(where, "missing (bake needs a mesh written by pavonine convert)")
+    if primvar.GetInterpolation() not in interpolations:
+        raise InputError(
+            where, f"interpolation {primvar.GetInterpolation()!r}, expected {interpolations}"
+        )
+    return np.asarray(primvar.Get(), dtype=np.float64)
+
+
+def mesh_data(mesh_prim) -> MeshData:
+    """A triangle mesh with the primvars baking needs (``st`` face-varying, feather coordinate
+    and barb direction per vertex, vertex normals); :class:`InputError` naming what is missing."""
+    from pxr import UsdGeom
+
+    mesh = UsdGeom.Mesh(mesh_prim)
+    where = str(mesh_prim.GetPath())
+    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get() or [], dtype=np.int64)
+    if len(counts) == 0 or np.any(counts != 3):
+        raise InputError(f"{where}: faceVertexCounts", "bake needs a triangle mesh")
+    faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), dtype=np.int64).reshape(-1, 3)
+    points = np.asarray(mesh.GetPointsAttr().Get(), dtype=np.float64)
+    normals = mesh.GetNormalsAttr().Get()
+    if normals is None or len(normals) != len(points):
+        raise InputError(f"{where}: normals", "bake needs one normal per vertex")
+    st_primvar = UsdGeom.PrimvarsAPI(mesh_prim).GetPrimvar("st")
+    st = _primvar(mesh_prim, "st", ("faceVarying",))
+    indices = st_primvar.GetIndices()
+    st_indices = np.asarray(indices, dtype=np.int64) if indices else np.arange(len(st))
+    if len(st_indices) != faces.size:
+        raise InputError(f"{where}: primvars:st", "needs one value per face corner")
+    return MeshData(
+        mesh_prim.GetName(),
+        points,
+        faces,
+        np.asarray(normals, dtype=np.float64),
+        _primvar(mesh_prim, FEATHER_UV, ("vertex", "varying")),
+        _primvar(mesh_prim, BARB_TANGENT, ("vertex", "varying")),
+        st,
+        st_indices,
+    )
+
+
+def merge(meshes: list[MeshData]) -> MeshData:
+    """One mesh from several (indices offset), for meshes sharing one material and atlas."""
+    if len(meshes) == 1:
+        return meshes[0]
+    offsets = np.cumsum([0] + [len(m.points) for m in meshes[:-1]])
+    st_offsets = np.cumsum([0] + [len(m.st_values) for m in meshes[:-1]])
+    return MeshData(
+        meshes[0].name,
+        np.concatenate([m.points for m in meshes]),
+        np.concatenate([m.faces + o for m, o in zip(meshes, offsets, strict=True)]),
+        np.concatenate([m.normals for m in meshes]),
+        np.concatenate([m.feather_uv for m in meshes]),
+        np.concatenate([m.barb_tangent for m in meshes]),
+        np.concatenate([m.st_values for m in meshes]),
+        np.concatenate([m.st_indices + o for m, o in zip(meshes, st_offsets, strict=True)]),
+    )
+
+
+def _open(root: Path):
+    from pxr import Tf, Usd
+
+    import pavonine  # noqa: F401  (registers the schema)
+
+    try:
+        stage = Usd.Stage.Open(str(root))
+    except Tf.ErrorException as exc:
+        raise InputError(str(root), f"cannot open USD stage: {str(exc).strip()}") from None
+    default = stage.GetDefaultPrim() if stage else None
+    if not default:
+        raise InputError(str(root), "no defaultPrim: bake works on a component asset")
+    lod = default.GetVariantSet("lod")
+    if "high" in lod.GetVariantNames():
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            lod.SetVariantSelection("high")
+    return stage, default
+
+
+def _bound_meshes(stage, default, material) -> list:
+    from pxr import Usd, UsdGeom, UsdShade
+
+    found = []
+    for prim in Usd.PrimRange(default):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        if UsdGeom.Imageable(prim).ComputePurpose() not in (
+            UsdGeom.Tokens.default_,
+            UsdGeom.Tokens.render,
+        ):
+            continue
+        bound, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        if bound and bound.GetPath() == material.GetPath():
+            found.append(prim)
+    return found
+
+
+def _edit_target(prim):
+    """An edit target on the strongest file layer holding a spec of ``prim``, through the
+    composition arc (reference, payload) that brings that layer in, so that edits made on
+    the composed stage land in it at the right paths."""
+    from pxr import Usd
+
+    nodes = [prim.GetPrimIndex().rootNode]
+    while nodes:
+        node = nodes.pop(0)
+        for layer in node.layerStack.layers:
+            if not layer.anonymous and layer.GetPrimAtPath(node.path):
+                return Usd.EditTarget(layer, node), layer
+        nodes.extend(node.children)
+    raise InputError(str(prim.GetPath()), "no file layer defines this material")
+
+
+def save_layer(layer) -> None:
+    """Save ``layer`` by exporting a temporary file beside it and renaming it into place."""
+    path = Path(layer.realPath)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        if not layer.Export(tmp):
+            raise OSError(f"{path}: cannot write")
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    layer.Reload(force=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def bake_asset(asset: str | os.PathLike, resolution: int, report=None) -> BakeReport:
+    """Re-bake every feather material of ``asset`` (see the module docstring)."""
+    from pxr import Usd, UsdShade
+
+    from pavonine.asset_io import local_file
+    from pavonine.materials.parameters import ParameterError
+    from pavonine.pipeline.maps.io import read_data_map
+    from pavonine.pipeline.shading.looks import Looks
+    from pavonine.pipeline.shading.usd import bind
+    from pavonine.schemas import authoring
+
+    root = root_layer_path(asset)
+    stage, default = _open(root)
+    materials = [
+        UsdShade.Material(p)
+        for p in Usd.PrimRange(default)
+        if p.IsA(UsdShade.Material) and authoring.SCHEMA_NAME in p.GetAppliedSchemas()
+    ]
+    if not materials:
+        raise InputError(str(root), "no PavonineFeatherAPI material under the default prim")
+    result = BakeReport(str(root), resolution)
+    for material in materials:
+        where = str(material.GetPath())
+        if report:
+            report(where)
+        meshes = _bound_meshes(stage, default, material)
+        if not meshes:
+            raise InputError(where, "no mesh is bound to this material")
+        try:
+            params = authoring.read_feather_parameters(material).validate()
+        except ParameterError as exc:
+            raise InputError(f"{where}: {exc.field}", exc.reason) from None
+        maps, paths = {}, {}
+        for key, resolved in authoring.resolve_maps(material).items():
+            attr = material.GetPrim().GetAttribute(authoring.MAP_ATTRS[key])
+            if resolved is None:
+                continue
+            try:
+                maps[key] = read_data_map(local_file(resolved), authoring.MAP_ATTRS[key]).values
+            except OSError:
+                raise InputError(f"{resolved}: {authoring.MAP_ATTRS[key]}", "not found") from None
+            paths[key] = attr.Get().path
+        target, layer = _edit_target(material.GetPrim())
+        folder = Path(layer.realPath).parent
+        vane = merge([mesh_data(prim) for prim in meshes])
+        looks = Looks.bake(folder, default.GetName(), vane, maps, paths, params, resolution)
+        portable_path = (
+            material.GetPath()
+            .GetParentPath()
+            .AppendChild(material.GetPath().name + PORTABLE_SUFFIX)
+        )
+        with Usd.EditContext(stage, target):
+            feather, portable = looks.author(stage, material.GetPath(), portable_path)
+            for prim in meshes:
+                bind(stage.OverridePrim(prim.GetPath()), feather, portable)
+        save_layer(layer)
+        result.materials.append(
+            {
+                "material": where,
+                "portable": str(portable_path),
+                "meshes": [str(p.GetPath()) for p in meshes],
+                "layer": layer.realPath,
+                "textures": looks.textures,
+                "mtlx": str(folder / f"{default.GetName()}.mtlx"),
+            }
+        )
+    return result

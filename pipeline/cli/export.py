@@ -1,0 +1,63 @@
+"""``pavonine export ASSET -o X.glb``: a feather asset as glTF 2.0 for game engines and the web."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from pavonine.pipeline.cli.options import emit_json, json_option, output_option, requires, say
+from pavonine.pipeline.errors import one_line_errors
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["asset", "output", "lod", "meshes", "materials", "bytes"],
+    "properties": {
+        "asset": {"type": "string", "description": "root layer of the asset exported"},
+        "output": {"type": "string", "description": "the .glb written"},
+        "lod": {"type": ["string", "null"], "description": "the 'lod' variant exported"},
+        "meshes": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["path", "vertices", "triangles"],
+                "properties": {
+                    "path": {"type": "string", "description": "the USD mesh prim"},
+                    "vertices": {"type": "integer"},
+                    "triangles": {"type": "integer"},
+                },
+            },
+        },
+        "materials": {"type": "array", "items": {"type": "string"}},
+        "bytes": {"type": "integer", "description": "size of the .glb"},
+    },
+}
+
+
+@click.command("export")
+@click.argument("asset", type=click.Path(path_type=Path))
+@output_option(folder=False, required=True, help="The .glb (binary glTF 2.0) file to write.")
+@click.option(
+    "--lod", default=None, help="Level of detail (the asset's 'lod' variant) [default: its own]."
+)
+@json_option(JSON_SCHEMA)
+@requires("pygltflib")
+@one_line_errors
+def export(asset: Path, output: Path, lod: str | None, json_target: str | None) -> None:
+    """Export ASSET (a root layer, or its folder) as a binary glTF 2.0 file.
+
+    The meshes of one LOD in metres, +Y up, with normals and st as TEXCOORD_0; the baked
+    feather as base colour with alpha MASK (cutoff = opacityThreshold), roughness, and
+    KHR_materials_iridescence with its thickness texture (the baked thin film), other materials
+    from their UsdPreviewSurface constants. Needs a baked asset (pavonine convert or bake).
+    Reference: docs/pipeline.md, "glTF export".
+    """
+    from pavonine.pipeline.export.gltf import export_gltf
+
+    report = export_gltf(asset, output, lod)
+    triangles = sum(m["triangles"] for m in report.meshes)
+    say(
+        f"wrote   {report.output}: {len(report.meshes)} meshes, {triangles:,} triangles, "
+        f"{len(report.materials)} materials, {report.bytes:,} bytes"
+    )
+    emit_json(json_target, report.as_dict())

@@ -1,0 +1,349 @@
+"""``pavonine export``: a feather asset as a glTF 2.0 binary (``.glb``), written with pygltflib.
+
+One glTF node per mesh of the chosen LOD (render or default purpose), positions in metres
+(``metersPerUnit``), +Y up, vertices split along the ``st`` atlas seams (glTF has one index per
+vertex), ``TEXCOORD_0`` = ``st`` with ``v`` flipped (glTF's origin is the image's top left),
+normals, and per material:
+
+* the feather material (``PavonineFeatherAPI``, baked): ``baseColorTexture`` = the baked
+  ``textures/basecolor.png`` (sRGB colour, linear alpha), ``alphaMode`` ``MASK`` with
+  ``alphaCutoff`` = the preview's ``opacityThreshold``, ``metallicRoughnessTexture`` (G = baked
+  roughness, B = metallic 0), double-sided, and ``KHR_materials_iridescence``: factor 1 with
+  ``iridescenceTexture`` R = the film weight (structural share), ``iridescenceThicknessTexture``
+  G = the film thickness over ``[0, 1000]`` nm (the baked texture's µm), ``iridescenceIor`` = the
+  opacity-weighted mean of the baked film index (glTF has one index per material);
+* any other material with a UsdPreviewSurface: its constant ``diffuseColor`` (linear, as glTF's
+  ``baseColorFactor``), ``roughness`` and ``metallic``.
+
+The baked textures are read from the materials' own networks (the preview's ``BakedColor`` and
+``BakedRoughness``, the preview-purpose material's film images), through USD's asset resolver.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pavonine.pipeline.bake.asset import mesh_data, root_layer_path
+from pavonine.pipeline.bake.textures import IOR_RANGE, THICKNESS_MAX_NM
+from pavonine.pipeline.errors import InputError, atomic_path
+
+IRIDESCENCE = "KHR_materials_iridescence"
+GENERATOR = "pavonine (pipeline/export/gltf.py, pygltflib)"
+
+
+@dataclass
+class ExportReport:
+    """What :func:`export_gltf` wrote."""
+
+    asset: str
+    output: str
+    lod: str | None
+    meshes: list[dict] = field(default_factory=list)
+    materials: list[str] = field(default_factory=list)
+    bytes: int = 0
+
+    def as_dict(self) -> dict:
+        return {
+            "asset": self.asset,
+            "output": self.output,
+            "lod": self.lod,
+            "meshes": self.meshes,
+            "materials": self.materials,
+            "bytes": self.bytes,
+        }
+
+
+class _Binary:
+    """A glTF document and its binary chunk, built up piece by piece."""
+
+    def __init__(self):
+        import pygltflib as gl
+
+        self.gl = gl
+        self.doc = gl.GLTF2(asset=gl.Asset(generator=GENERATOR, version="2.0"))
+        self.blob = bytearray()
+        self.doc.samplers.append(
+            gl.Sampler(
+                magFilter=gl.LINEAR,
+                minFilter=gl.LINEAR_MIPMAP_LINEAR,
+                wrapS=gl.CLAMP_TO_EDGE,
+                wrapT=gl.CLAMP_TO_EDGE,
+            )
+        )
+
+    def view(self, data: bytes, target: int | None = None) -> int:
+        while len(self.blob) % 4:
+            self.blob.append(0)
+        view = self.gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data))
+        if target is not None:
+            view.target = target
+        self.blob.extend(data)
+        self.doc.bufferViews.append(view)
+        return len(self.doc.bufferViews) - 1
+
+    def accessor(self, values: np.ndarray, kind: str, target: int, bounds: bool = False) -> int:
+        gl = self.gl
+        component = gl.UNSIGNED_INT if values.dtype == np.uint32 else gl.FLOAT
+        accessor = gl.Accessor(
+            bufferView=self.view(np.ascontiguousarray(values).tobytes(), target),
+            componentType=component,
+            count=len(values),
+            type=kind,
+        )
+        if bounds:
+            accessor.min = values.min(axis=0).astype(float).tolist()
+            accessor.max = values.max(axis=0).astype(float).tolist()
+        self.doc.accessors.append(accessor)
+        return len(self.doc.accessors) - 1
+
+    def texture(self, png: bytes, name: str) -> int:
+        gl = self.gl
+        self.doc.images.append(gl.Image(bufferView=self.view(png), mimeType=gl.IMAGEPNG, name=name))
+        self.doc.textures.append(gl.Texture(sampler=0, source=len(self.doc.images) - 1))
+        return len(self.doc.textures) - 1
+
+    def save(self, path: Path) -> None:
+        self.doc.buffers.append(self.gl.Buffer(byteLength=len(self.blob)))
+        self.doc.set_binary_blob(bytes(self.blob))
+        self.doc.save_binary(str(path))
+
+
+def _png(rgb: np.ndarray) -> bytes:
+    """An 8-bit PNG of ``rgb`` (``[row, column, channel]`` in [0, 1]), raw data (no colour tag)."""
+    import OpenImageIO as oiio
+
+    pixels = np.round(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)
+    height, width, channels = pixels.shape
+    with tempfile.TemporaryDirectory(prefix="pavonine-gltf-") as tmp:
+        path = os.path.join(tmp, "texture.png")
+        buf = oiio.ImageBuf(oiio.ImageSpec(width, height, channels, oiio.UINT8))
+        buf.set_pixels(oiio.ROI(0, width, 0, height), pixels)
+        if not buf.write(path):
+            raise OSError(f"cannot encode a PNG: {buf.geterror()}")
+        return Path(path).read_bytes()
+
+
+def _texture_file(shader_input) -> str | None:
+    """The resolved file of the image feeding ``shader_input`` (through one remap, say)."""
+    from pxr import UsdShade
+
+    seen = 0
+    current = shader_input
+    while current and current.HasConnectedSource() and seen < 4:
+        shader = UsdShade.Shader(current.GetConnectedSources()[0][0].source.GetPrim())
+        file = shader.GetInput("file")
+        if file and file.Get() is not None:
+            return file.Get().resolvedPath or None
+        current = shader.GetInput("in")
+        seen += 1
+    return None
+
+
+def _surface(material, context: str = ""):
+    from pxr import UsdShade
+
+    output = material.GetSurfaceOutput(context)
+    if not output or not output.HasConnectedSource():
+        return None
+    return UsdShade.Shader(output.GetConnectedSources()[0][0].source.GetPrim())
+
+
+def _feather_material(out: _Binary, material, portable, name: str) -> int:
+    """The glTF material of a baked feather material (see the module docstring)."""
+    from pavonine.asset_io import read_bytes
+    from pavonine.pipeline.bake.textures import read_data_textures
+
+    gl = out.gl
+    preview = _surface(material)
+    film = _surface(portable, "mtlx") if portable else None
+    where = str(material.GetPath())
+    files = {
+        "base_color": _texture_file(preview.GetInput("diffuseColor")) if preview else None,
+        "roughness": _texture_file(preview.GetInput("roughness")) if preview else None,
+    }
+    for key, input_name in (
+        ("film_thickness", "thin_film_thickness"),
+        ("film_ior", "thin_film_ior"),
+        ("film_weight", "thin_film_weight"),
+    ):
+        files[key] = _texture_file(film.GetInput(input_name)) if film else None
+    missing = sorted(k for k, v in files.items() if not v)
+    if missing:
+        raise InputError(where, f"no baked textures ({', '.join(missing)}); run pavonine bake")
+    data = read_data_textures(files)
+    base = read_bytes(files["base_color"])
+    zeros = np.zeros_like(data["roughness"])
+    rough = out.texture(_png(np.stack([zeros, data["roughness"], zeros], -1)), f"{name} roughness")
+    iridescence = out.texture(
+        _png(np.stack([data["film_weight"], data["film_thickness"], zeros], -1)),
+        f"{name} iridescence",
+    )
+    threshold = preview.GetInput("opacityThreshold")
+    cutoff = float(threshold.Get()) if threshold and threshold.Get() else 0.5
+    alpha = _alpha_weights(files["base_color"], data["film_ior"].shape, cutoff)
+    index = IOR_RANGE[0] + (IOR_RANGE[1] - IOR_RANGE[0]) * data["film_ior"]
+    extension = {
+        "iridescenceFactor": 1.0,
+        "iridescenceTexture": {"index": iridescence},
+        "iridescenceIor": float(np.average(index, weights=alpha)),
+        "iridescenceThicknessMinimum": 0.0,
+        "iridescenceThicknessMaximum": THICKNESS_MAX_NM,
+        "iridescenceThicknessTexture": {"index": iridescence},
+    }
+    out.doc.materials.append(
+        gl.Material(
+            name=name,
+            pbrMetallicRoughness=gl.PbrMetallicRoughness(
+                baseColorTexture=gl.TextureInfo(index=out.texture(base, f"{name} base colour")),
+                metallicFactor=0.0,
+                roughnessFactor=1.0,
+                metallicRoughnessTexture=gl.TextureInfo(index=rough),
+            ),
+            alphaMode=gl.MASK,
+            alphaCutoff=cutoff,
+            doubleSided=True,
+            extensions={IRIDESCENCE: extension},
+        )
+    )
+    return len(out.doc.materials) - 1
+
+
+def _alpha_weights(path: str, shape: tuple[int, int], cutoff: float) -> np.ndarray:
+    """1 where the baked base colour's alpha passes the cut, else 0 (all 1 if none does)."""
+    import OpenImageIO as oiio
+
+    from pavonine.asset_io import local_file
+
+    pixels = oiio.ImageBuf(local_file(path)).get_pixels(oiio.FLOAT)
+    alpha = np.asarray(pixels)[..., 3] if pixels is not None and pixels.shape[-1] == 4 else None
+    if alpha is None or alpha.shape != shape or not np.any(alpha >= cutoff):
+        return np.ones(shape)
+    return (alpha >= cutoff).astype(np.float64)
+
+
+def _preview_material(out: _Binary, material, name: str) -> int:
+    """A glTF material from a UsdPreviewSurface's constants (a warning-free subset)."""
+    gl = out.gl
+    shader = _surface(material)
+
+    def constant(input_name: str, fallback):
+        inp = shader.GetInput(input_name) if shader else None
+        value = inp.Get() if inp and not inp.HasConnectedSource() else None
+        return fallback if value is None else value
+
+    colour = [float(c) for c in constant("diffuseColor", (0.18, 0.18, 0.18))]
+    out.doc.materials.append(
+        gl.Material(
+            name=name,
+            pbrMetallicRoughness=gl.PbrMetallicRoughness(
+                baseColorFactor=[*colour, 1.0],
+                metallicFactor=float(constant("metallic", 0.0)),
+                roughnessFactor=float(constant("roughness", 0.5)),
+            ),
+            doubleSided=True,
+        )
+    )
+    return len(out.doc.materials) - 1
+
+
+def _split_vertices(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """glTF vertices (one per distinct (vertex, st) pair) as indices into the welded vertices
+    and ``st``, and the triangles over them."""
+    corners = np.stack([mesh.faces.ravel(), mesh.st_indices], axis=1)
+    pairs, triangles = np.unique(corners, axis=0, return_inverse=True)
+    return pairs, triangles.reshape(-1).astype(np.uint32)
+
+
+def export_gltf(asset: str | os.PathLike, output: str | os.PathLike, lod: str | None = None):
+    """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``."""
+    from pxr import Tf, Usd, UsdGeom, UsdShade
+
+    import pavonine  # noqa: F401  (registers the schema)
+
+    root = root_layer_path(asset)
+    output = Path(output)
+    if output.suffix.lower() != ".glb":
+        raise InputError(str(output), "the export must be a .glb file")
+    try:
+        stage = Usd.Stage.Open(str(root))
+    except Tf.ErrorException as exc:
+        raise InputError(str(root), f"cannot open USD stage: {str(exc).strip()}") from None
+    default = stage.GetDefaultPrim()
+    if not default:
+        raise InputError(str(root), "no defaultPrim")
+    variants = default.GetVariantSet("lod")
+    if lod is not None:
+        if lod not in variants.GetVariantNames():
+            known = ", ".join(variants.GetVariantNames()) or "none"
+            raise InputError("--lod", f"{root} has no lod {lod!r} (variants: {known})")
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            variants.SetVariantSelection(lod)
+    if UsdGeom.GetStageUpAxis(stage) != UsdGeom.Tokens.y:
+        raise InputError(str(root), "only +Y-up assets are exported (glTF is +Y up)")
+    scale = UsdGeom.GetStageMetersPerUnit(stage)
+    out = _Binary()
+    gl = out.gl
+    report = ExportReport(str(root), str(output), variants.GetVariantSelection() or None)
+    cache = UsdGeom.XformCache()
+    materials: dict[str, int] = {}
+    children = []
+    for prim in Usd.PrimRange(default):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        purpose = UsdGeom.Imageable(prim).ComputePurpose()
+        if purpose not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
+            continue
+        mesh = mesh_data(prim)
+        matrix = np.array(cache.ComputeRelativeTransform(prim, default)[0], dtype=np.float64)
+        pairs, triangles = _split_vertices(mesh)
+        points = mesh.points[pairs[:, 0]] @ matrix[:3, :3] + matrix[3, :3]
+        normals = mesh.normals[pairs[:, 0]] @ np.linalg.inv(matrix[:3, :3]).T
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-20)
+        st = mesh.st_values[pairs[:, 1]]
+        texcoords = np.stack([st[:, 0], 1.0 - st[:, 1]], axis=1)
+        bound, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        key = str(bound.GetPath()) if bound else ""
+        if key and key not in materials:
+            name = bound.GetPrim().GetName()
+            if "PavonineFeatherAPI" in bound.GetPrim().GetAppliedSchemas():
+                preview, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(
+                    UsdShade.Tokens.preview
+                )
+                materials[key] = _feather_material(out, bound, preview, name)
+            else:
+                materials[key] = _preview_material(out, bound, name)
+            report.materials.append(key)
+        attributes = gl.Attributes(
+            POSITION=out.accessor(
+                (points * scale).astype(np.float32), gl.VEC3, gl.ARRAY_BUFFER, True
+            ),
+            NORMAL=out.accessor(normals.astype(np.float32), gl.VEC3, gl.ARRAY_BUFFER),
+            TEXCOORD_0=out.accessor(texcoords.astype(np.float32), gl.VEC2, gl.ARRAY_BUFFER),
+        )
+        primitive = gl.Primitive(
+            attributes=attributes,
+            indices=out.accessor(triangles, gl.SCALAR, gl.ELEMENT_ARRAY_BUFFER),
+            material=materials.get(key),
+        )
+        out.doc.meshes.append(gl.Mesh(name=prim.GetName(), primitives=[primitive]))
+        out.doc.nodes.append(gl.Node(name=prim.GetName(), mesh=len(out.doc.meshes) - 1))
+        children.append(len(out.doc.nodes) - 1)
+        report.meshes.append(
+            {"path": str(prim.GetPath()), "vertices": len(pairs), "triangles": len(triangles) // 3}
+        )
+    if not children:
+        raise InputError(str(root), "no mesh to export")
+    out.doc.nodes.append(gl.Node(name=default.GetName(), children=children))
+    out.doc.scenes.append(gl.Scene(nodes=[len(out.doc.nodes) - 1]))
+    out.doc.scene = 0
+    if any(IRIDESCENCE in (m.extensions or {}) for m in out.doc.materials):
+        out.doc.extensionsUsed = [IRIDESCENCE]
+    with atomic_path(output) as tmp:
+        out.save(tmp)
+    report.bytes = output.stat().st_size
+    return report

@@ -1,0 +1,141 @@
+"""``pavonine export``: a glTF 2.0 binary that the Khronos glTF validator (npm
+``gltf-validator``, run by ``.ci/gltf_validate.mjs``) accepts with no errors, carrying the baked
+look: base colour + alpha MASK and ``KHR_materials_iridescence`` with its thickness texture."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from pavonine.pipeline.cli import cli
+
+CI = Path(__file__).resolve().parents[1] / ".ci"
+VALIDATOR = CI / "node_modules" / "gltf-validator"
+
+
+def run(*args: str):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def glb(eye_asset, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("gltf") / "eye_feather.glb"
+    result = run("export", eye_asset.parent, "-o", out, "--lod", "medium", "--json", "-")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["lod"] == "medium" and len(report["meshes"]) == 2
+    return out
+
+
+def _image_bytes(doc, texture_index: int) -> bytes:
+    image = doc.images[doc.textures[texture_index].source]
+    assert image.mimeType == "image/png"
+    view = doc.bufferViews[image.bufferView]
+    return doc.binary_blob()[view.byteOffset : view.byteOffset + view.byteLength]
+
+
+def _image(doc, texture_index: int, folder: Path) -> np.ndarray:
+    import OpenImageIO as oiio
+
+    path = folder / f"texture{texture_index}.png"
+    path.write_bytes(_image_bytes(doc, texture_index))
+    return np.asarray(oiio.ImageBuf(str(path)).get_pixels(oiio.FLOAT))
+
+
+def test_glb_carries_the_baked_feather(glb, eye_asset, tmp_path):
+    import pygltflib
+
+    doc = pygltflib.GLTF2().load_binary(str(glb))
+    assert doc.extensionsUsed == ["KHR_materials_iridescence"]
+    materials = {m.name: m for m in doc.materials}
+    feather, rachis = materials["Feather"], materials["Rachis"]
+    assert feather.alphaMode == "MASK" and feather.alphaCutoff == pytest.approx(0.5)
+    assert feather.doubleSided and feather.pbrMetallicRoughness.metallicFactor == 0.0
+    iridescence = feather.extensions["KHR_materials_iridescence"]
+    assert iridescence["iridescenceThicknessMinimum"] == 0.0
+    assert iridescence["iridescenceThicknessMaximum"] == 1000.0
+    assert 1.3 < iridescence["iridescenceIor"] < 2.0
+    base = feather.pbrMetallicRoughness.baseColorTexture.index
+    stored = _image_bytes(doc, base)
+    assert stored == (eye_asset.parent / "textures" / "basecolor.png").read_bytes()
+    film = _image(doc, iridescence["iridescenceThicknessTexture"]["index"], tmp_path)
+    from pavonine.pipeline.maps.io import read_map
+
+    thickness = read_map(eye_asset.parent / "textures" / "film_thickness.png", "film")
+    weight = read_map(eye_asset.parent / "textures" / "film_weight.png", "film")
+    assert np.max(np.abs(film[..., 1] - thickness)) <= 0.5 / 255 + 1e-6  # G: thickness (µm)
+    assert np.max(np.abs(film[..., 0] - weight)) <= 0.5 / 255 + 1e-6  # R: factor
+    assert rachis.alphaMode == "OPAQUE" and len(rachis.pbrMetallicRoughness.baseColorFactor) == 4
+
+
+def test_glb_geometry_is_in_metres_with_unit_normals_and_uvs(glb):
+    import pygltflib
+
+    doc = pygltflib.GLTF2().load_binary(str(glb))
+    blob = doc.binary_blob()
+
+    def values(index: int, width: int) -> np.ndarray:
+        accessor = doc.accessors[index]
+        view = doc.bufferViews[accessor.bufferView]
+        raw = blob[view.byteOffset : view.byteOffset + view.byteLength]
+        return np.frombuffer(raw, dtype=np.float32).reshape(-1, width)
+
+    vane = next(m for m in doc.meshes if m.name == "Vane").primitives[0]
+    points = values(vane.attributes.POSITION, 3)
+    assert 0.15 < np.ptp(points[:, 1]) < 0.3  # a 20 cm feather (+ shaft), in metres
+    normals = values(vane.attributes.NORMAL, 3)
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    uv = values(vane.attributes.TEXCOORD_0, 2)
+    assert np.all((uv >= 0.0) & (uv <= 1.0))
+
+
+def _validator() -> list[str]:
+    node = shutil.which("node")
+    if node is None or shutil.which("npm") is None:
+        pytest.skip("Node.js/npm not installed: cannot run the Khronos glTF validator")
+    if not VALIDATOR.is_dir():  # as .ci/setup does
+        subprocess.run(
+            ["npm", "ci", "--prefix", str(CI), "--no-audit", "--no-fund", "--loglevel=error"],
+            check=True,
+            timeout=600,
+        )
+    return [node, str(CI / "gltf_validate.mjs")]
+
+
+def test_khronos_glTF_validator_reports_no_errors(glb):
+    result = subprocess.run(
+        [*_validator(), str(glb)], capture_output=True, text=True, check=False, timeout=300
+    )
+    report = json.loads(result.stdout)
+    assert result.returncode == 0 and report["errors"] == 0, report["messages"][:10]
+    assert report["warnings"] == 0, report["messages"][:10]
+    assert report["extensionsUsed"] == ["KHR_materials_iridescence"]
+
+
+def test_validator_script_catches_a_broken_file(glb, tmp_path):
+    broken = tmp_path / "broken.glb"
+    data = bytearray(glb.read_bytes())
+    data[20:40] = b"x" * 20  # corrupt the JSON chunk
+    broken.write_bytes(bytes(data))
+    result = subprocess.run(
+        [*_validator(), str(broken)], capture_output=True, text=True, check=False, timeout=300
+    )
+    assert result.returncode == 1 and json.loads(result.stdout)["errors"] > 0
+
+
+@pytest.mark.parametrize(
+    ("args", "field"), [(("-o", "x.gltf"), "x.gltf"), (("--lod", "ultra"), "--lod")]
+)
+def test_bad_input_is_one_line(eye_asset, tmp_path, args, field):
+    argv = ["export", eye_asset.parent, "-o", tmp_path / "x.glb", *args]
+    if args[0] == "-o":
+        argv = ["export", eye_asset.parent, "-o", tmp_path / args[1]]
+    result = run(*argv)
+    assert result.exit_code == 2 and field in result.stderr and result.stderr.count("\n") == 1
+    assert not any(tmp_path.iterdir())

@@ -1,0 +1,90 @@
+"""``benchmarks/usd_suites.py``: its checks can fail, its camera is usdrecord's, a small suite runs."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).parents[1] / "benchmarks" / "usd_suites.py"
+
+
+@pytest.fixture(scope="module")
+def suites():
+    spec = importlib.util.spec_from_file_location("usd_suites", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_usdrecord_framing_camera(suites):
+    """frameRecorder.cpp: distance = |half diagonal in the image plane| / tan(half fov) + depth/2."""
+    matrix = suites.usdrecord_camera_matrix([[-1, -1, -1], [1, 1, 1]], "Y")
+    half_fov = math.atan(20.955 / 100.0)
+    assert matrix[3, :3] == pytest.approx([0, 0, math.sqrt(2) / math.tan(half_fov) + 1])
+    z_up = suites.usdrecord_camera_matrix([[0, 0, 0], [2, 2, 2]], "Z")
+    assert z_up[3, :3] == pytest.approx([1, 1 - (math.sqrt(2) / math.tan(half_fov) + 1), 1])
+    assert z_up[2, :3] == pytest.approx([0, -1, 0])  # the camera's +Z (it looks down −Z) is −Y
+
+
+def test_silhouette_agreement_and_checks_can_fail(suites, tmp_path):
+    import OpenImageIO as oiio
+
+    reference = np.zeros((40, 40, 4), np.float32)
+    reference[10:30, 10:30, 3] = 1.0
+    path = tmp_path / "screenshots" / "x_usdrecord_22.08.png"
+    path.parent.mkdir()
+    out = oiio.ImageBuf(oiio.ImageSpec(40, 40, 4, oiio.UINT8))
+    out.set_pixels(oiio.ROI(0, 40, 0, 40), reference)
+    out.write(str(path))
+    same = np.zeros((20, 20))
+    same[5:15, 5:15] = 1.0
+    iou, inside, ref_cover = suites.silhouette_agreement(same, path)
+    assert iou == pytest.approx(1.0) and inside == pytest.approx(1.0) and ref_cover == 0.25
+    shifted = np.roll(same, 4, axis=1)
+    assert suites.silhouette_agreement(shifted, path)[0] < suites.SILHOUETTE_IOU
+    metrics = {
+        "status": "ok",
+        "gprims": 1,
+        "coverage": 0.0,
+        "lit_luminance": 0.0,
+        "warnings": ["/Box: NurbsPatch prims are not supported by the Mitsuba delegate; skipped"],
+        "silhouette_iou": 0.5,
+        "inside_reference": 0.5,
+        "reference_coverage": 0.25,
+        "subdivided": 0,
+    }
+    outcome = suites.checks(metrics)
+    assert outcome == {
+        "runs": True,
+        "coverage": False,
+        "lit": None,
+        "silhouette": False,
+        "supported": False,
+    }
+    assert suites.checks({"status": "traceback"}) == {"runs": False}
+
+
+@pytest.mark.render
+def test_a_small_suite_runs_and_reports(suites, tmp_path):
+    suite = tmp_path / "test_assets"
+    suite.mkdir()
+    (suite / "ball.usda").write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n')
+    (suite / "broken.usda").write_text(
+        '#usda 1.0\ndef Mesh "M" {\n  point3f[] points = [(0, 0\n}\n'
+    )
+    out = tmp_path / "out"
+    assert suites.main([str(suite), "-o", str(out), "--size", "24", "--spp", "2"]) == 0
+    rows = {row["name"]: row for row in json.loads((out / "report.json").read_text())}
+    assert rows["ball.usda"]["passed"], rows["ball.usda"]
+    assert rows["ball.usda"]["metrics"]["coverage"] > 0.2
+    broken = rows["broken.usda"]
+    assert (
+        broken["checks"] == {"runs": False}
+        and "cannot open USD stage" in broken["metrics"]["detail"]
+    )
+    assert (out / "contact_sheet.png").stat().st_size > 0
