@@ -76,3 +76,17 @@ class DrJitOps:
 
 
 NUMPY = NumpyOps()
+
+
+def bilinear_gather(
+    values: Any, base: Any, stride: float, t_fast: Any, t_slow: Any, ops: Any
+) -> Any:
+    """Bilinear interpolation in a flat row-major table: ``base`` indexes the lower corner, the
+    fast axis steps by 1 (weight ``t_fast``), the slow axis by ``stride`` (weight ``t_slow``)."""
+    v00 = ops.gather(values, base)
+    v01 = ops.gather(values, base + 1.0)
+    v10 = ops.gather(values, base + stride)
+    v11 = ops.gather(values, base + (stride + 1.0))
+    v0 = v00 + (v01 - v00) * t_fast
+    v1 = v10 + (v11 - v10) * t_fast
+    return v0 + (v1 - v0) * t_slow

@@ -30,10 +30,14 @@ from typing import Any
 import numpy as np
 
 from pavonine.materials import barbule, layers, rod
-from pavonine.materials.arraymath import NUMPY
+from pavonine.materials.arraymath import NUMPY, bilinear_gather
 from pavonine.materials.parameters import FeatherParameters, LayerStack
+from pavonine.materials.stack import StackTable
 
 UM_TO_NM = 1000.0
+#: Half-vector tilt (degrees) over which Eq. 7's blend fades to equal weights near the normal.
+ORIENTATION_FADE_DEG = 6.0
+ORIENTATION_FADE_T2 = math.tan(math.radians(ORIENTATION_FADE_DEG)) ** 2
 
 
 @dataclass(frozen=True)
@@ -50,20 +54,17 @@ class RowTable:
         table, x_max, n_x, n_cos = rod.row_reflectance_table(m)
         return cls(table.ravel(), x_max, n_x, n_cos)
 
+    def with_values(self, values) -> RowTable:
+        """The same table with its values in another array type (a Dr.Jit buffer)."""
+        return RowTable(values, self.x_max, self.n_x, self.n_cos)
+
     def lookup(self, x: Any, cos_theta: Any, ops: Any = NUMPY) -> Any:
         """Bilinear interpolation of the table at ``(x, cos θ)`` (clamped to the grid)."""
         fx = ops.minimum(ops.maximum(x * ((self.n_x - 1) / self.x_max), 0.0), self.n_x - 1.0001)
         fc = ops.minimum(ops.maximum(cos_theta * (self.n_cos - 1.0), 0.0), self.n_cos - 1.0001)
         ix, ic = ops.floor(fx), ops.floor(fc)
         tx, tc = fx - ix, fc - ic
-        base = ix * self.n_cos + ic
-        v00 = ops.gather(self.values, base)
-        v01 = ops.gather(self.values, base + 1.0)
-        v10 = ops.gather(self.values, base + self.n_cos)
-        v11 = ops.gather(self.values, base + (self.n_cos + 1.0))
-        v0 = v00 + (v01 - v00) * tc
-        v1 = v10 + (v11 - v10) * tc
-        return v0 + (v1 - v0) * tx
+        return bilinear_gather(self.values, ix * self.n_cos + ic, self.n_cos, tc, tx, ops)
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,32 @@ def stack_reflectance(
     )
 
 
+def axis_reflectance(
+    constants: MaterialConstants, table: Any, wavelength_nm: Any, cos_d: Any, stack: tuple, ops: Any
+) -> Any:
+    """Specular reflectance of one barbule axis at outside incidence ``cos θ_d``.
+
+    Paper modes: Eq. 1–4 from the stack's ``(interval_nm, radius_nm, count)`` and the
+    :class:`RowTable`. Physical mode: the :class:`StackTable` at ``stack = (entry, gradation)``.
+    """
+    if constants.interference == "physical":
+        return table.lookup(stack[0], stack[1], wavelength_nm, cos_d, ops)
+    return stack_reflectance(constants, table, wavelength_nm, cos_d, *stack, ops=ops)
+
+
+def orientation_weight(hx: Any, hy: Any, hz: Any, ops: Any = NUMPY) -> Any:
+    """``cos²ψ`` of Eq. 7 from the half-vector, fading to ½ as its tilt goes to zero.
+
+    ``cos²ψ = ½ + ½ (h_x² − h_y²) / (h_x² + h_y² + t₀² h_z²)``, ``t₀ = tan(ORIENTATION_FADE_DEG)``:
+    the azimuth ``ψ`` of the half-vector is undefined on the normal, so the blend goes smoothly to
+    equal weights there instead of jumping between the axes (no seams inside the highlight);
+    beyond a few degrees of tilt it is the plain ``h_x² / (h_x² + h_y²)``. Depends on ``h`` only,
+    so the BRDF stays reciprocal.
+    """
+    hxx, hyy = hx * hx, hy * hy
+    return 0.5 + 0.5 * (hxx - hyy) / (hxx + hyy + ORIENTATION_FADE_T2 * hz * hz + 1e-30)
+
+
 def structural_brdf(
     constants: MaterialConstants,
     table: RowTable,
@@ -131,11 +158,9 @@ def structural_brdf(
     hx, hy, hz = hx * inv_len, hy * inv_len, hz * inv_len
     cos_d = ops.minimum(ops.maximum(ix * hx + iy * hy + iz * hz, 0.0), 1.0)
 
-    r_long = stack_reflectance(constants, table, wavelength_nm, cos_d, *long_stack, ops=ops)
-    r_short = stack_reflectance(constants, table, wavelength_nm, cos_d, *short_stack, ops=ops)
-    hxy = hx * hx + hy * hy
-    cos2_psi = ops.select(hxy > 1e-12, hx * hx / ops.maximum(hxy, 1e-12), 0.5)
-    reflectance = barbule.orientation_blend(r_long, r_short, cos2_psi)
+    r_long = axis_reflectance(constants, table, wavelength_nm, cos_d, long_stack, ops)
+    r_short = axis_reflectance(constants, table, wavelength_nm, cos_d, short_stack, ops)
+    reflectance = barbule.orientation_blend(r_long, r_short, orientation_weight(hx, hy, hz, ops))
 
     sigma_x = barbule.along_sigma(
         constants.block_sigma, constants.rod_length_nm, wavelength_nm, ops
@@ -171,6 +196,15 @@ def feather_brdf(
     same_side = wi[2] * wo[2] > 0.0
     diffuse = ops.select(same_side, melanin_albedo * (1.0 / math.pi), 0.0)
     return structural_share * structural + (1.0 - structural_share) * diffuse
+
+
+@functools.lru_cache(maxsize=16)
+def reflectance_table(params: FeatherParameters) -> RowTable | StackTable:
+    """The material's reflectance table: Eq. 2's row table (paper modes) or the physical stack
+    table (built once per material, about 0.1 s per class and axis)."""
+    if params.interference == "physical":
+        return StackTable(params)
+    return RowTable.build(complex(params.melanin_index / params.medium_index))
 
 
 def stack_in_nm(stack: LayerStack) -> tuple[float, float, float]:
@@ -220,11 +254,15 @@ class FeatherModel:
     def __init__(self, params: FeatherParameters):
         self.params = params.validate()
         self.constants = MaterialConstants.from_parameters(params)
-        self.table = RowTable.build(complex(params.melanin_index / params.medium_index))
+        self.table = reflectance_table(params)
 
     def stacks_nm(self, ocellar_class: int, gradation: float):
-        """``(long, short)`` stacks as ``(interval_nm, radius_nm, count)`` tuples."""
+        """``(long, short)`` stacks: ``(interval_nm, radius_nm, count)`` tuples in the paper
+        modes, ``(table entry, gradation)`` in the physical mode."""
         long_stack, short_stack = self.params.stacks(ocellar_class, gradation)
+        if self.constants.interference == "physical":
+            t = min(max(float(gradation), 0.0), 1.0)
+            return tuple((self.table.entry(ocellar_class, axis), t) for axis in (0, 1))
         return stack_in_nm(long_stack), stack_in_nm(short_stack)
 
     def structural(self, wi, wo, wavelength_nm, ocellar_class: int = 0, gradation: float = 0.0):

@@ -19,6 +19,7 @@ linear sRGB (1, 1, 1).
 from __future__ import annotations
 
 import functools
+import math
 from pathlib import Path
 
 import numpy as np
@@ -171,3 +172,32 @@ def delta_e2000(lab_a: np.ndarray, lab_b: np.ndarray) -> np.ndarray:
 def linear_srgb_to_lab(linear_rgb: np.ndarray) -> np.ndarray:
     """CIE L*a*b* (D65 white with Y = 1) of scene-linear Rec. 709 colours."""
     return xyz_to_lab(linear_srgb_to_xyz(linear_rgb))
+
+
+#: CIE D65 white point, CIE 1931 2° chromaticity (CIE 15:2004 Table T.3).
+D65_WHITE_XY = (0.31271, 0.32902)
+
+
+def dominant_wavelength(xyz: np.ndarray, white_xy: tuple[float, float] = D65_WHITE_XY) -> float:
+    """Dominant wavelength (nm) of a colour: where the line from the white point through its
+    chromaticity meets the spectral locus (CIE 15:2004 §9.1). For purples, which have none, the
+    complementary wavelength is returned negated. NaN for the white point itself."""
+    xyz = np.asarray(xyz, dtype=np.float64)
+    total = xyz.sum()
+    if total <= 0:
+        return math.nan
+    point = xyz[:2] / total - np.asarray(white_xy)
+    if np.hypot(*point) < 1e-9:
+        return math.nan
+    lam = np.arange(CIE_RANGE_NM[0], CIE_RANGE_NM[1] - 99.5, 0.5)  # 360–730 nm: monotone locus
+    bar = cmfs(lam)
+    locus = bar[:, :2] / bar.sum(axis=1, keepdims=True) - np.asarray(white_xy)
+    cross = locus[:, 0] * point[1] - locus[:, 1] * point[0]
+    dot = locus @ point
+    for sign in (1.0, -1.0):
+        change = np.nonzero((np.sign(cross[:-1]) != np.sign(cross[1:])) & (sign * dot[:-1] > 0))[0]
+        if change.size:
+            i = int(change[0])
+            t = cross[i] / (cross[i] - cross[i + 1])
+            return sign * float(lam[i] + t * (lam[i + 1] - lam[i]))
+    return math.nan

@@ -73,7 +73,11 @@ SCALAR_INPUTS: dict[str, tuple[str, Any, str]] = {
     "crescent_sigma": ("float", 15.0, "Normal spread across the barbule, degrees (Eq 6)."),
     "block_sigma": ("float", 8.0, "Normal spread along the barbule, degrees."),
     "rod_length": ("float", 5.0, "Rod length, um (full model only; unused by this graph)."),
-    "interference": ("string", "paper", "Eq 3/4 form: paper | intensity (full model only)."),
+    "interference": (
+        "string",
+        "paper",
+        "Rod-layer optics: paper | intensity | physical (full model only).",
+    ),
     "melanin_color": ("color3", (0.22, 0.12, 0.06), "Linear sRGB melanin-brown albedo."),
     "structural": ("float", 1.0, "Share of structural colour, from the melanin map."),
     "opacity": ("float", 1.0, "Opacity, from the alpha map."),

@@ -12,13 +12,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pavonine.materials import barbule, colour
+from pavonine.materials import barbule, colour, rod
 from pavonine.materials.barbule import (
     crescent_density,
     orientation_blend,
     rod_gradient_weight,
 )
 from pavonine.materials.brdf import FeatherModel, direction, melanin_albedo
+from pavonine.materials.dispersion import KERATIN, MELANIN
+from pavonine.materials.lattice import RodLattice
 from pavonine.materials.layers import (
     array_factor,
     fill_factor,
@@ -40,6 +42,7 @@ from pavonine.materials.rod import (
     n_max_for,
     unpolarised_intensity,
 )
+from pavonine.materials.stack import lattice_reflectance_emt
 from pavonine.materials.transfer_matrix import multilayer_reflectance, rod_stack_layers
 
 __all__ = [
@@ -68,6 +71,7 @@ __all__ = [
     "rod_gradient_weight",
     "rod_row_intensity",
     "rod_stack_layers",
+    "stack_reflectance",
     "summarise",
     "uniform_parameters",
     "unpolarised_intensity",
@@ -101,6 +105,57 @@ def check_angle(name: str, degrees: float) -> float:
             name, f"must lie inside the hemisphere (-90, 90) degrees, got {value:g}"
         )
     return value
+
+
+def stack_reflectance(
+    wavelength_nm,
+    interval_nm: float,
+    radius_nm: float,
+    layers: float,
+    *,
+    n_rod=None,
+    n_medium=None,
+    cos_theta=1.0,
+    mode: str = "physical",
+) -> np.ndarray:
+    """Unpolarised specular reflectance (0…1) of ``layers`` rod layers embedded in the medium.
+
+    Broadcasts over ``wavelength_nm`` (and ``cos_theta``, the cosine of the incidence angle in the
+    medium above the stack). ``n_rod``/``n_medium``: constants, or ``None`` for dispersive melanin
+    (with absorption) / keratin (:mod:`pavonine.materials.dispersion`).
+
+    ``mode="physical"``: the effective-medium transfer matrix of the staggered lattice of touching
+    rods (:func:`pavonine.materials.stack.lattice_reflectance_emt`), TE and TM averaged, refraction
+    and absorption included. ``mode="paper"`` (or ``"intensity"``): Eq. 2's row reflectance times
+    Eq. 4's layer factor at ``θ_in = θ_out = θ`` (the paper's reading, for comparison). A
+    non-integer ``layers`` interpolates between ⌊N⌋ and ⌈N⌉ layers in both.
+    """
+    lam = np.asarray(wavelength_nm, dtype=np.float64)
+    rod_index = MELANIN.index(lam) if n_rod is None else np.asarray(n_rod, dtype=np.complex128)
+    medium = KERATIN.index(lam).real if n_medium is None else np.asarray(n_medium, np.float64)
+    cos_t = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
+    low = max(math.floor(layers), 1)
+    frac = float(layers) - low
+    if mode == "physical":
+        sin_t = np.sqrt(1.0 - cos_t**2)
+
+        def exact(count: int) -> np.ndarray:
+            lattice = RodLattice(float(interval_nm), float(radius_nm), count)
+            return lattice_reflectance_emt(
+                lattice, lam, n_rod=rod_index, n_matrix=medium, sin_above=sin_t
+            )
+
+        r = exact(low)
+        return r if frac <= 1e-9 else r + (exact(low + 1) - r) * frac
+    if mode not in ("paper", "intensity"):
+        raise ValueError(f"mode must be 'physical', 'paper' or 'intensity', got {mode!r}")
+    lam_b, cos_b, m_b, n0_b = np.broadcast_arrays(lam, cos_t, rod_index / medium, medium)
+    single = np.empty(lam_b.shape)
+    for i in np.ndindex(lam_b.shape):
+        x = 2.0 * math.pi * n0_b[i] * radius_nm / lam_b[i]
+        single[i] = rod.row_reflectance(x, complex(m_b[i]), np.array([cos_b[i]]))[0]
+    d_opt = optical_distance(interval_nm, radius_nm, np.real(rod_index), medium)
+    return multilayer_intensity(single, float(layers), d_opt, cos_t, cos_t, lam, mode)
 
 
 @functools.lru_cache(maxsize=32)
@@ -152,9 +207,12 @@ class SpectrumSummary:
     peak_value: float
 
     def as_json(self) -> dict:
+        """Stable keys: ``observe_deg``, ``peak_nm``, ``peak_reflectance`` (the peak of the plotted
+        reflectance factor πf), ``fwhm_nm`` (None if the band does not close), ``srgb``."""
         return {
             "observe_deg": self.observe_deg,
             "peak_nm": round(self.peak_nm, 2),
+            "peak_reflectance": round(self.peak_value, 4),
             "fwhm_nm": None if self.fwhm_nm is None else round(self.fwhm_nm, 2),
             "srgb": [round(c, 4) for c in self.srgb],
         }

@@ -12,8 +12,13 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-INTERFERENCE_MODES = ("paper", "intensity")
+from pavonine.materials.dispersion import KERATIN, MELANIN, Dispersion
+from pavonine.materials.lattice import LATTICES, GeometryError, RodLattice
+
+INTERFERENCE_MODES = ("paper", "intensity", "physical")
 AXES = ("long", "short")
+#: Per-class arrays beyond Table 1's interval/radius/count (physical mode; 0 = none/touching).
+STRUCTURE_FIELDS = ("spacing", "channel")
 
 
 class ParameterError(ValueError):
@@ -53,11 +58,15 @@ class LayerStack:
 
     ``interval``: physical layer interval ``d`` (µm, Table 1's ``L_d``); ``radius``: melanin-rod
     radius ``a`` (µm); ``count``: number of layers ``N_d`` (real-valued after interpolation).
+    Physical mode only: ``spacing`` of the rods within a layer (µm; 0 = touching, 2a) and the
+    ``channel`` diameter of the air channels between them (µm; 0 = none).
     """
 
     interval: float
     radius: float
     count: float
+    spacing: float = 0.0
+    channel: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -79,6 +88,35 @@ class LayerStack:
                 f"{2 * self.interval:.4g} um (fill factor pi*a/(2d) > 1)",
                 "RodsOverlap",
             )
+        for quantity in STRUCTURE_FIELDS:
+            value = getattr(self, quantity)
+            if not math.isfinite(value) or value < 0:
+                raise ParameterError(
+                    f"{name}.{quantity}", f"must be finite and >= 0, got {value}", "NotPositive"
+                )
+
+    def lattice(self, arrangement: str, cortex: float = 0.0, count: int | None = None):
+        """The :class:`RodLattice` of this stack in nm (``count`` defaults to ⌊N_d⌋)."""
+        n = math.floor(self.count) if count is None else count
+        return RodLattice(
+            self.interval * 1000.0,
+            self.radius * 1000.0,
+            max(n, 1),
+            self.spacing * 1000.0,
+            arrangement,
+            self.channel * 1000.0,
+            cortex * 1000.0,
+        )
+
+    def check_geometry(self, name: str, arrangement: str, cortex: float = 0.0) -> None:
+        """Raise :class:`ParameterError` if rods or channels of this lattice overlap."""
+        try:
+            self.lattice(arrangement, cortex, count=max(2, math.ceil(self.count))).check()
+        except GeometryError as exc:
+            raise ParameterError(f"{name}.{exc.field}", exc.reason, "RodsOverlap") from None
+
+
+STACK_QUANTITIES = ("interval", "radius", "count", *STRUCTURE_FIELDS)
 
 
 def _lerp(a: float, b: float, t: float) -> float:
@@ -87,27 +125,40 @@ def _lerp(a: float, b: float, t: float) -> float:
 
 @dataclass(frozen=True)
 class OcellarClass:
-    """One ocellar-map class: per axis, the (black, white) ends of the gradation map."""
+    """One ocellar-map class: per axis, the (black, white) ends of the gradation map, and the
+    keratin cortex thickness above the rods (µm, (black, white); physical mode)."""
 
     long: tuple[LayerStack, LayerStack]
     short: tuple[LayerStack, LayerStack]
+    cortex: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cortex", tuple(f32(c) for c in self.cortex))
 
     def at(self, gradation: float) -> tuple[LayerStack, LayerStack]:
         """``(long, short)`` stacks at gradation ``t`` ∈ [0, 1]: 0 = black end, 1 = white end."""
         t = min(max(float(gradation), 0.0), 1.0)
         return tuple(
             LayerStack(
-                _lerp(black.interval, white.interval, t),
-                _lerp(black.radius, white.radius, t),
-                _lerp(black.count, white.count, t),
+                *(_lerp(getattr(black, f.name), getattr(white, f.name), t) for f in fields(black))
             )
             for black, white in (self.long, self.short)
         )  # type: ignore[return-value]
+
+    def cortex_at(self, gradation: float) -> float:
+        """Cortex thickness (µm) at gradation ``t``."""
+        t = min(max(float(gradation), 0.0), 1.0)
+        return _lerp(self.cortex[0], self.cortex[1], t)
 
     def validate(self, name: str) -> None:
         for axis in AXES:
             for end, stack in zip(("black", "white"), getattr(self, axis), strict=True):
                 stack.validate(f"{name}.{axis}.{end}")
+        for end, value in zip(("black", "white"), self.cortex, strict=True):
+            if not math.isfinite(value) or value < 0:
+                raise ParameterError(
+                    f"{name}.cortex.{end}", f"must be finite and >= 0, got {value}", "NotPositive"
+                )
 
 
 @dataclass(frozen=True)
@@ -120,8 +171,11 @@ class FeatherParameters:
     crescent_sigma_deg: float = 15.0  # θ0 of Eq. 6, across the barbule
     block_sigma_deg: float = 8.0  # spread along the barbule (saddle blocks), not given by the paper
     rod_length_um: float = 5.0  # "several µm": diffraction at rod ends, along the barbule
-    interference: str = "paper"  # Eq. 3/4 as printed (|Σ|/N) or "intensity" (|Σ|²/N²)
+    interference: str = "paper"  # Eq. 3/4 as printed (|Σ|/N), "intensity" (|Σ|²/N²), "physical"
     melanin_color: tuple[float, float, float] = field(default=(0.22, 0.12, 0.06))  # linear sRGB
+    lattice: str = "staggered"  # physical mode: rod layers "staggered" or "rectangular"
+    melanin: Dispersion = MELANIN  # physical mode: rod index n(λ) + i k(λ)
+    keratin: Dispersion = KERATIN  # physical mode: matrix and cortex index n(λ)
 
     def __post_init__(self) -> None:
         for name in (
@@ -134,6 +188,11 @@ class FeatherParameters:
             object.__setattr__(self, name, f32(getattr(self, name)))
         object.__setattr__(self, "melanin_color", tuple(f32(c) for c in self.melanin_color))
         object.__setattr__(self, "classes", tuple(self.classes))
+        for name in ("melanin", "keratin"):
+            value = getattr(self, name)
+            object.__setattr__(
+                self, name, Dispersion(*(f32(getattr(value, f.name)) for f in fields(value)))
+            )
 
     def validate(self) -> FeatherParameters:
         """Raise :class:`ParameterError` naming the first unphysical field; return ``self``."""
@@ -156,7 +215,54 @@ class FeatherParameters:
         for c in self.melanin_color:
             if not (math.isfinite(c) and 0.0 <= c <= 1.0):
                 raise ParameterError("melanin_color", f"components must lie in [0, 1], got {c}")
+        if self.lattice not in LATTICES:
+            raise ParameterError("lattice", f"must be one of {LATTICES}, got {self.lattice!r}")
+        for name in ("melanin", "keratin"):
+            try:
+                getattr(self, name).check(name)
+            except ValueError as exc:
+                raise ParameterError(name, str(exc).split(": ", 1)[-1]) from None
+        self._check_geometry()
         return self
+
+    def _check_geometry(self) -> None:
+        """Physical mode: rods or channels that overlap are an error (:meth:`RodLattice.check`)."""
+        if self.interference != "physical":
+            return
+        for i, cls in enumerate(self.classes):
+            for axis in AXES:
+                ends = zip(("black", "white"), getattr(cls, axis), cls.cortex, strict=True)
+                for end, stack, cortex in ends:
+                    stack.check_geometry(f"class[{i}].{axis}.{end}", self.lattice, cortex)
+
+    def geometry_warnings(self) -> list[tuple[int, str, str]]:
+        """Paper modes: ``(class, axis, message)`` for each class and axis whose rods would overlap
+        if staggered (``d < √3·a``). The paper mode keeps Table 1 as printed (class 4's short axis
+        fails); the physical mode refuses such a stack (:meth:`validate`)."""
+        if self.interference == "physical":
+            return []
+        out = []
+        for i, cls in enumerate(self.classes):
+            for axis in AXES:
+                tight = [
+                    (end, stack)
+                    for end, stack in zip(("black", "white"), getattr(cls, axis), strict=True)
+                    if stack.interval * (1 + 1e-6) < math.sqrt(3.0) * stack.radius
+                ]
+                if tight:
+                    stack = tight[0][1]
+                    which = " and ".join(e for e, _ in tight)
+                    out.append(
+                        (
+                            i,
+                            axis,
+                            f"class {i} {axis} axis ({which} end{'s' if len(tight) > 1 else ''}): "
+                            f"staggered rods overlap, d = {stack.interval:.4g} um < sqrt(3)*a = "
+                            f"{math.sqrt(3.0) * stack.radius:.4g} um; kept as printed in the "
+                            "paper mode, an error in the physical mode",
+                        )
+                    )
+        return out
 
     def stacks(self, ocellar_class: int, gradation: float) -> tuple[LayerStack, LayerStack]:
         """``(long, short)`` stacks for a class index and gradation value."""
@@ -172,33 +278,38 @@ class FeatherParameters:
         return replace(self, **changes)
 
     def class_arrays(self) -> dict[str, np.ndarray]:
-        """Table-shaped arrays ``{axis}_{interval|radius|count}`` of shape (classes, 2 ends)."""
+        """Table-shaped arrays of shape (classes, 2 ends): ``{axis}_{quantity}`` for every
+        :class:`LayerStack` field, and ``cortex``."""
         out: dict[str, np.ndarray] = {}
         for axis in AXES:
-            for quantity in ("interval", "radius", "count"):
+            for quantity in STACK_QUANTITIES:
                 out[f"{axis}_{quantity}"] = np.array(
                     [[getattr(s, quantity) for s in getattr(c, axis)] for c in self.classes],
                     dtype=np.float64,
-                )
+                ).reshape(-1, 2)
+        out["cortex"] = np.array([c.cortex for c in self.classes], dtype=np.float64).reshape(-1, 2)
         return out
 
     @classmethod
     def from_class_arrays(cls, arrays: dict[str, Sequence], **scalars) -> FeatherParameters:
-        """Inverse of :meth:`class_arrays`."""
+        """Inverse of :meth:`class_arrays`; the physical-mode arrays (``spacing``, ``channel``,
+        ``cortex``) may be missing or empty (= 0 for every class)."""
         n = len(arrays["long_interval"])
+
+        def cell(key: str, i: int, end: int) -> float:
+            values = arrays.get(key)
+            return 0.0 if values is None or len(values) == 0 else values[i][end]
+
         classes = []
         for i in range(n):
             per_axis = {}
             for axis in AXES:
                 per_axis[axis] = tuple(
-                    LayerStack(
-                        arrays[f"{axis}_interval"][i][end],
-                        arrays[f"{axis}_radius"][i][end],
-                        arrays[f"{axis}_count"][i][end],
-                    )
+                    LayerStack(*(cell(f"{axis}_{q}", i, end) for q in STACK_QUANTITIES))
                     for end in (0, 1)
                 )
-            classes.append(OcellarClass(**per_axis))
+            cortex = (cell("cortex", i, 0), cell("cortex", i, 1))
+            classes.append(OcellarClass(**per_axis, cortex=cortex))
         return cls(classes=tuple(classes), **scalars)
 
 
@@ -217,10 +328,11 @@ def _cls(long_d, long_a, long_n, short_d, short_a, short_n) -> OcellarClass:
 
 
 # Table 1 of the paper ("black/white for the grad. map"), lengths in µm. One departure: class 5's
-# white-end radius along both axes is printed .075 with L_d = .11, i.e. π·a = 0.236 > 2·d = 0.22
-# (rods would overlap, fill factor 1.07). It is clamped to the largest radius that fits,
-# 2·d/π = 0.0700 µm (docs/model.md, "Table 1").
-_CLASS5_WHITE_RADIUS = 2 * 0.11 / math.pi
+# white-end radius along both axes is printed .075 with L_d = .11: staggered rods of that size
+# overlap (they need d >= sqrt(3)*a) and even their cell is over-full (pi*a > 2*d). It is set to
+# the largest radius whose staggered rods still fit, d/sqrt(3) = 0.0635 µm (fill factor 0.91, so
+# the stack keeps its index contrast; docs/model.md, "Table 1").
+_CLASS5_WHITE_RADIUS = 0.11 / math.sqrt(3.0)
 
 TABLE1 = (
     _cls(0.19, (0.075, 0.070), 4, 0.15, 0.065, (16, 18)),
@@ -238,8 +350,45 @@ def _uniform(interval: float, radius: float, count: float) -> OcellarClass:
     return _cls(interval, radius, count, interval, radius, count)
 
 
+#: Freyer & Stavenga 2020 (Faraday Discuss. 223:49), the six eye-feather regions as
+#: (lattice a, lattice b, cortex c, melanosome diameter D_m, air channel D_a in nm; layers N_m).
+#: Pavonine reads ``a`` as the lattice spacing across the layers (the layer interval, Zi et al.'s
+#: lattice constant) and ``b`` as the rod spacing within a layer; the reverse reading puts the
+#: brown and green-yellow regions' bands in the blue (docs/model.md, "Literature preset").
+FREYER_2020_REGIONS = {
+    "purple": (185, 190, 140, 100, 70, 3),
+    "brass-green": (185, 160, 130, 120, 70, 4),
+    "green-yellow": (195, 150, 130, 120, 55, 5),
+    "brown": (190, 150, 70, 110, 50, 5),
+    "blue-green": (160, 170, 100, 110, 33, 9),
+    "black-violet": (140, 150, 100, 100, 33, 10),
+}
+#: Ocellar class (0 = white … 5 = black) of each region, from the eye's heart outwards 5 … 1;
+#: class 0, the lower vane of loose barbs, takes the remaining region.
+FREYER_2020_CLASSES = (
+    "purple",
+    "brass-green",
+    "green-yellow",
+    "brown",
+    "blue-green",
+    "black-violet",
+)
+
+
+def _freyer_class(region: str) -> OcellarClass:
+    a, b, c, dm, da, nm = FREYER_2020_REGIONS[region]
+    stack = LayerStack(a / 1000, dm / 2000, nm, b / 1000, da / 1000)
+    return OcellarClass(long=(stack, stack), short=(stack, stack), cortex=(c / 1000, c / 1000))
+
+
 PRESETS: dict[str, FeatherParameters] = {
     "paper-table1": FeatherParameters(classes=TABLE1),
+    # Freyer & Stavenga 2020: measured eye-feather structure, literature melanin and keratin.
+    "freyer2020": FeatherParameters(
+        classes=tuple(_freyer_class(region) for region in FREYER_2020_CLASSES),
+        interference="physical",
+        lattice="rectangular",
+    ),
     # Paper §2.1: yellow covert barbules, 3–6 layers at 190 nm; rods 130–140 nm in diameter.
     "yellow": FeatherParameters(classes=(_uniform(0.190, 0.070, 4),)),
     # Paper §2.1: blue body barbules, 8–12 layers at 150 nm.
@@ -248,7 +397,7 @@ PRESETS: dict[str, FeatherParameters] = {
 
 
 def preset(name: str) -> FeatherParameters:
-    """A named preset (``paper-table1``, ``yellow``, ``blue``)."""
+    """A named preset (``paper-table1``, ``freyer2020``, ``yellow``, ``blue``)."""
     try:
         return PRESETS[name]
     except KeyError:

@@ -114,6 +114,82 @@ def table1_swatches(
     ax.axvline(len(observe_deg) - 0.5, color="white", lw=3)
     ax.set_yticks(range(len(rows)), labels, fontsize=8)
     ax.set_xlabel("plane of observation and angle (incidence 0°)")
-    ax.set_title("Table 1 classes: structural colour", fontsize=10)
+    ax.set_title(f"Ocellar classes: structural colour ({params.interference} mode)", fontsize=10)
     _save(fig, path)
     return grid
+
+
+#: The stacks the physical mode is pinned on (issue 9): name -> (interval d, radius a in nm, N).
+REFERENCE_STACKS = {
+    "yellow (d 190, a 70, N 4)": (190.0, 70.0, 4),
+    "blue (d 150, a 65, N 10)": (150.0, 65.0, 10),
+    "class 5 black end (d 110, a 60, N 16)": (110.0, 60.0, 16),
+}
+#: Index sets: label -> (rod index or None = melanin, medium index or None = keratin).
+INDEX_SETS = {
+    "paper indices: rods n = 2.0 in air": (2.0, 1.0),
+    "melanin in keratin (dispersive, absorbing)": (None, None),
+}
+
+
+def physical_comparison(path: Path, grcwa_points: bool = True) -> str | None:
+    """Paper mode, physical mode and the rigorous RCWA of the rod lattice at normal incidence, for
+    the yellow, blue and class-5 stacks with both index sets. With ``grcwa_points`` a few
+    wavelengths are also solved by the independent ``grcwa`` package (markers); returns a note
+    when grcwa is not installed (the figure is still drawn, without those markers)."""
+    from pavonine.materials import dispersion, rcwa
+    from pavonine.materials.lattice import RodLattice
+
+    lam = np.arange(340.0, 861.0, 5.0)
+    note = None
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7.5), sharex=True)
+    for row, (index_label, (n_rod, n_med)) in enumerate(INDEX_SETS.items()):
+        rod_index = dispersion.MELANIN.index(lam) if n_rod is None else n_rod
+        medium = dispersion.KERATIN.index(lam).real if n_med is None else n_med
+        for col, (name, (d, a, n)) in enumerate(REFERENCE_STACKS.items()):
+            ax = axes[row, col]
+            lattice = RodLattice(d, a, n)
+            exact = rcwa.lattice_reflectance(
+                lattice, lam, n_rod=rod_index, n_matrix=medium, harmonics=7, per_diameter=12
+            )
+            kwargs = dict(n_rod=n_rod, n_medium=n_med)
+            paper = optics.stack_reflectance(lam, d, a, n, mode="paper", **kwargs)
+            physical = optics.stack_reflectance(lam, d, a, n, mode="physical", **kwargs)
+            ax.plot(lam, paper, color="0.55", ls="--", lw=1.4, label="paper mode (Eq. 2–4)")
+            ax.plot(lam, physical, color="tab:blue", lw=2.0, label="physical mode (EMT TMM)")
+            ax.plot(lam, exact, color="black", lw=1.0, label="RCWA of the rod lattice")
+            if grcwa_points and note is None:
+                peak = float(lam[np.argmax(exact)])
+                picks = [w for w in (peak - 80.0, peak, peak + 80.0) if 345.0 <= w <= 855.0]
+                try:
+                    values = [
+                        rcwa.grcwa_reflectance(
+                            lattice,
+                            w,
+                            n_rod=complex(dispersion.MELANIN.index(w)) if n_rod is None else n_rod,
+                            n_matrix=float(dispersion.KERATIN.real(w)) if n_med is None else n_med,
+                            harmonics=15,
+                            per_diameter=8,
+                            grid=256,
+                        )
+                        for w in picks
+                    ]
+                    ax.plot(picks, values, "o", mfc="none", color="tab:red", label="grcwa check")
+                except ImportError:
+                    note = "grcwa is not installed: the independent grcwa check points are omitted"
+            ax.set_title(name, fontsize=9)
+            ax.set_ylim(0, max(1.05 * max(paper.max(), physical.max(), exact.max()), 0.02))
+            if col == 0:
+                ax.set_ylabel(f"{index_label}\nreflectance (normal incidence)", fontsize=8)
+            if row == 1:
+                ax.set_xlabel("wavelength (nm)")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.suptitle(
+        "Rod stacks: paper mode vs physical mode vs rigorous coupled-wave analysis", fontsize=11
+    )
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    if note:
+        fig.text(0.5, 0.035, note, ha="center", fontsize=8, color="tab:red")
+    _save(fig, path)
+    return note

@@ -30,16 +30,18 @@ from pavonine.materials import barbule
 from pavonine.materials.brdf import (
     UM_TO_NM,
     MaterialConstants,
-    RowTable,
     feather_brdf,
+    reflectance_table,
     srgb_model_eval,
 )
-from pavonine.materials.parameters import FeatherParameters
+from pavonine.materials.dispersion import Dispersion
+from pavonine.materials.parameters import STACK_QUANTITIES, FeatherParameters
 
 PLUGIN_NAME = "pavonine_feather"
 BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
 SAMPLING_WAVELENGTH_NM = 550.0
 QUANTITIES = ("interval", "radius", "count")
+DISPERSIONS = ("melanin", "keratin")
 DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
 MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
 
@@ -48,11 +50,18 @@ def encode_parameters(params: FeatherParameters) -> dict:
     """The plugin's scalar properties for a material (class tables as comma-separated strings)."""
     arrays = params.class_arrays()
     props: dict = {
-        f"{axis}_{q}": ",".join(repr(float(v)) for v in arrays[f"{axis}_{q}"].ravel())
-        for axis in ("long", "short")
-        for q in QUANTITIES
+        key: ",".join(repr(float(v)) for v in value.ravel()) for key, value in arrays.items()
     }
     props.update(
+        {
+            f"{name}_dispersion": ",".join(
+                repr(float(v)) for v in vars(getattr(params, name)).values()
+            )
+            for name in DISPERSIONS
+        }
+    )
+    props.update(
+        lattice=params.lattice,
         n_classes=len(params.classes),
         melanin_index=params.melanin_index,
         medium_index=params.medium_index,
@@ -68,15 +77,18 @@ def encode_parameters(params: FeatherParameters) -> dict:
 def decode_parameters(props) -> FeatherParameters:
     """Inverse of :func:`encode_parameters` (from a ``mi.Properties`` or a dict)."""
     n = int(props["n_classes"])
+    keys = [f"{axis}_{q}" for axis in ("long", "short") for q in STACK_QUANTITIES] + ["cortex"]
     arrays = {
-        f"{axis}_{q}": np.array([float(v) for v in str(props[f"{axis}_{q}"]).split(",")]).reshape(
-            n, 2
-        )
-        for axis in ("long", "short")
-        for q in QUANTITIES
+        key: np.array([float(v) for v in str(props[key]).split(",")]).reshape(n, 2) for key in keys
+    }
+    dispersions = {
+        name: Dispersion(*(float(v) for v in str(props[f"{name}_dispersion"]).split(",")))
+        for name in DISPERSIONS
     }
     return FeatherParameters.from_class_arrays(
         arrays,
+        lattice=str(props["lattice"]),
+        **dispersions,
         melanin_index=float(props["melanin_index"]),
         medium_index=float(props["medium_index"]),
         crescent_sigma_deg=float(props["crescent_sigma_deg"]),
@@ -130,9 +142,11 @@ def feather_bsdf_dict(
 def class_tables(params: FeatherParameters, ops) -> dict:
     """Per-class (black, white) stack tables as Dr.Jit arrays, lengths in nm: ``{axis}_{quantity}``."""
     scale = {"interval": UM_TO_NM, "radius": UM_TO_NM, "count": 1.0}
+    arrays = params.class_arrays()
     return {
-        key: ops.buffer(value * scale[key.split("_")[1]])
-        for key, value in params.class_arrays().items()
+        f"{axis}_{q}": ops.buffer(arrays[f"{axis}_{q}"] * scale[q])
+        for axis in ("long", "short")
+        for q in QUANTITIES
     }
 
 
@@ -162,15 +176,18 @@ class JitMaterial:
         self.params = params.validate()
         self.ops = DrJitOps()
         self.constants = MaterialConstants.from_parameters(params)
-        table = RowTable.build(complex(params.melanin_index / params.medium_index))
-        self.table = RowTable(self.ops.buffer(table.values), table.x_max, table.n_x, table.n_cos)
+        table = reflectance_table(params)
+        self.table = table.with_values(self.ops.buffer(table.values))
         self.class_tables = class_tables(params, self.ops)
         self.melanin_coefficients = [
             float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*params.melanin_color))
         ]
 
     def stacks(self, ocellar_class, gradation) -> list[tuple]:
-        """``[long, short]`` stacks per lane (see :func:`gather_stacks`)."""
+        """``[long, short]`` stacks per lane: Table 1 dimensions (:func:`gather_stacks`) in the
+        paper modes, ``(table entry, gradation)`` in the physical mode."""
+        if self.constants.interference == "physical":
+            return [(self.table.entry(ocellar_class, axis), gradation) for axis in (0, 1)]
         return gather_stacks(self.class_tables, ocellar_class, gradation, self.ops)
 
     def brdf(self, wi, wo, wavelength_nm, long_stack, short_stack, share):

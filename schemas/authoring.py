@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pxr import Gf, Sdf, Usd, UsdShade
 
 from pavonine.materials import materialx
+from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import AXES, FeatherParameters, ParameterError
 from pavonine.schemas.plugin import SCHEMA_NAME, require_schema
 
@@ -40,6 +41,27 @@ CLASS_ATTRS: dict[tuple[str, str], tuple[str, Sdf.ValueTypeName]] = {
     )
 }
 
+#: Optional per-class arrays (physical mode; empty or unauthored = 0 for every class):
+#: ``class_arrays()`` key -> schema attribute (all ``float2[]``).
+STRUCTURE_ATTRS: dict[str, str] = {
+    **{
+        f"{axis}_{field}": f"pavonine:{axis}:{name}"
+        for axis in AXES
+        for field, name in (("spacing", "rodSpacing"), ("channel", "airChannelDiameter"))
+    },
+    "cortex": "pavonine:cortexThickness",
+}
+
+#: Dispersive materials (physical mode): FeatherParameters field -> ((attribute, Dispersion
+#: fields it holds), ...), each attribute a ``float2``.
+DISPERSION_ATTRS: dict[str, tuple[tuple[str, tuple[str, str]], ...]] = {
+    "melanin": (
+        ("pavonine:melaninDispersion", ("cauchy_a", "cauchy_b")),
+        ("pavonine:melaninAbsorption", ("extinction", "extinction_scale")),
+    ),
+    "keratin": (("pavonine:keratinDispersion", ("cauchy_a", "cauchy_b")),),
+}
+
 #: FeatherParameters scalar field -> (schema attribute, value type).
 SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
     "melanin_index": ("pavonine:melaninIndex", Sdf.ValueTypeNames.Float),
@@ -50,6 +72,11 @@ SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
     "interference": ("pavonine:interference", Sdf.ValueTypeNames.Token),
     "melanin_color": ("pavonine:melaninColor", Sdf.ValueTypeNames.Color3f),
 }
+#: Scalars only the physical mode reads (not mirrored on the MaterialX nodedef).
+PHYSICAL_SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
+    "lattice": ("pavonine:rodLattice", Sdf.ValueTypeNames.Token),
+}
+UNIFORM_ATTRS = ("pavonine:interference", "pavonine:rodLattice")
 
 MTLX_SHADER = "FeatherMtlx"
 PREVIEW_SHADER = "PreviewSurface"
@@ -106,16 +133,25 @@ def author_parameters(prim: Usd.Prim, params: FeatherParameters) -> None:
         else:
             value = [Gf.Vec2f(float(b), float(w)) for b, w in rows]
         prim.CreateAttribute(name, vtype, custom=False).Set(value)
-    for field, (name, vtype) in SCALAR_ATTRS.items():
+    for key, name in STRUCTURE_ATTRS.items():
+        rows = arrays[key]
+        value = [Gf.Vec2f(float(b), float(w)) for b, w in rows] if rows.any() else []
+        prim.CreateAttribute(name, Sdf.ValueTypeNames.Float2Array, custom=False).Set(value)
+    for field, (name, vtype) in {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.items():
         value = getattr(params, field)
         if vtype == Sdf.ValueTypeNames.Color3f:
             value = Gf.Vec3f(*value)
         attr = prim.CreateAttribute(name, vtype, custom=False, variability=_variability(name))
         attr.Set(value)
+    for field, attrs in DISPERSION_ATTRS.items():
+        material = getattr(params, field)
+        for name, parts in attrs:
+            value = Gf.Vec2f(*(float(getattr(material, part)) for part in parts))
+            prim.CreateAttribute(name, Sdf.ValueTypeNames.Float2, custom=False).Set(value)
 
 
 def _variability(name: str) -> Sdf.Variability:
-    return Sdf.VariabilityUniform if name == "pavonine:interference" else Sdf.VariabilityVarying
+    return Sdf.VariabilityUniform if name in UNIFORM_ATTRS else Sdf.VariabilityVarying
 
 
 def author_maps(prim: Usd.Prim, maps: Mapping[str, str]) -> None:
@@ -177,17 +213,35 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
             "pavonine:long:layerInterval", f"per-class arrays must be equal and >= 1 long: {detail}"
         )
     scalars: dict[str, object] = {}
-    for field, (name, vtype) in SCALAR_ATTRS.items():
+    for field, (name, vtype) in {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.items():
         value = _typed_value(prim, name, vtype)
         if value is None:
             raise ParameterError(name, f"no value (is {SCHEMA_NAME} applied and known to USD?)")
         if field == "melanin_color":
             value = tuple(float(c) for c in value)
-        elif field == "interference":
+        elif field in ("interference", "lattice"):
             value = str(value)
         else:
             value = float(value)
         scalars[field] = value
+    n_classes = next(iter(lengths.values()))
+    for key, name in STRUCTURE_ATTRS.items():
+        value = _typed_value(prim, name, Sdf.ValueTypeNames.Float2Array)
+        rows = [(float(v[0]), float(v[1])) for v in value] if value else []
+        if rows and len(rows) != n_classes:
+            raise ParameterError(
+                name,
+                f"has {len(rows)} classes but the material has {n_classes} (or leave it empty)",
+            )
+        arrays[key] = rows
+    for field, attrs in DISPERSION_ATTRS.items():
+        parts: dict[str, float] = {}
+        for name, names in attrs:
+            value = _typed_value(prim, name, Sdf.ValueTypeNames.Float2)
+            if value is None:
+                raise ParameterError(name, f"no value (is {SCHEMA_NAME} applied and known to USD?)")
+            parts.update(zip(names, (float(v) for v in value), strict=True))
+        scalars[field] = Dispersion(**parts)
     return FeatherParameters.from_class_arrays(arrays, **scalars)
 
 

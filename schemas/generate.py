@@ -38,7 +38,9 @@ VALIDATORS: dict[str, tuple[str, list[str]]] = {
     ),
     "FeatherParameters": (
         "Per-class arrays agree in length and hold physical values (positive, rods not "
-        "overlapping: pi*a <= 2*d, layer counts >= 1, angles in range, known interference mode).",
+        "overlapping: pi*a <= 2*d, and in the physical mode the rod lattice fits, e.g. "
+        "d >= sqrt(3)*a for staggered touching rods; layer counts >= 1, angles in range, known "
+        "interference mode and rod lattice, dispersive indices >= 1).",
         ["PavonineFeatherAPI"],
     ),
     "FeatherMaps": (
@@ -73,6 +75,14 @@ def fallback_values() -> dict[str, object]:
         out[f"pavonine:{axis}:layerCount"] = [
             Gf.Vec2i(*(int(v) for v in row)) for row in arrays[f"{axis}_count"].tolist()
         ]
+    for name in (
+        "pavonine:long:rodSpacing",
+        "pavonine:long:airChannelDiameter",
+        "pavonine:short:rodSpacing",
+        "pavonine:short:airChannelDiameter",
+        "pavonine:cortexThickness",
+    ):
+        out[name] = []  # empty: 0 for every class (touching rods, no channels, no cortex)
     defaults = FeatherParameters(classes=params.classes)
     out["pavonine:melaninIndex"] = defaults.melanin_index
     out["pavonine:mediumIndex"] = defaults.medium_index
@@ -81,6 +91,16 @@ def fallback_values() -> dict[str, object]:
     out["pavonine:rodLength"] = defaults.rod_length_um
     out["pavonine:interference"] = defaults.interference
     out["pavonine:melaninColor"] = Gf.Vec3f(*defaults.melanin_color)
+    out["pavonine:rodLattice"] = defaults.lattice
+    out["pavonine:melaninDispersion"] = Gf.Vec2f(
+        defaults.melanin.cauchy_a, defaults.melanin.cauchy_b
+    )
+    out["pavonine:melaninAbsorption"] = Gf.Vec2f(
+        defaults.melanin.extinction, defaults.melanin.extinction_scale
+    )
+    out["pavonine:keratinDispersion"] = Gf.Vec2f(
+        defaults.keratin.cauchy_a, defaults.keratin.cauchy_b
+    )
     return out
 
 

@@ -16,12 +16,18 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 from collections.abc import Callable, Iterable
 
 from pxr import Usd, UsdShade, UsdValidation
 
 from pavonine.materials import materialx
-from pavonine.materials.parameters import AXES, INTERFERENCE_MODES, LayerStack, ParameterError
+from pavonine.materials.parameters import (
+    AXES,
+    INTERFERENCE_MODES,
+    LayerStack,
+    ParameterError,
+)
 from pavonine.schemas import authoring
 from pavonine.schemas.plugin import SCHEMA_NAME, VALIDATOR_PLUGIN_NAME
 
@@ -212,6 +218,46 @@ def _check_scalars(prim: Usd.Prim) -> list:
     return errors
 
 
+_FIELD = re.compile(r"^class\[(\d+)\]\.(long|short|cortex)\.?(black|white)?\.?(\w+)?$")
+_NAMED_FIELDS = {
+    "lattice": "pavonine:rodLattice",
+    "melanin": "pavonine:melaninDispersion",
+    "keratin": "pavonine:keratinDispersion",
+}
+
+
+def _attribute_of_field(field: str) -> str:
+    """The schema attribute behind a :class:`ParameterError` field (``class[4].short.black.radius``)."""
+    match = _FIELD.match(field)
+    if not match:
+        return _NAMED_FIELDS.get(field, f"pavonine:{field}")
+    _, axis, _, quantity = match.groups()
+    if axis == "cortex":
+        return authoring.STRUCTURE_ATTRS["cortex"]
+    if quantity in ("spacing", "channel"):
+        return authoring.STRUCTURE_ATTRS[f"{axis}_{quantity}"]
+    return _attr_of(axis, quantity if quantity in ("interval", "count") else "radius")
+
+
+def _check_lattice(prim: Usd.Prim) -> list:
+    """The whole material through :meth:`FeatherParameters.validate`: optional per-class arrays,
+    dispersive indices, and the rod lattice (an error in the physical mode, a warning per class
+    and axis whose staggered rods would overlap in the paper modes)."""
+    try:
+        params = authoring.read_feather_parameters(prim)
+    except ParameterError as exc:
+        return [_error(prim, "ArrayLengthMismatch", exc.reason, exc.field)]
+    try:
+        params.validate()
+    except ParameterError as exc:
+        message = f"{exc.field}: {exc.reason}"
+        return [_error(prim, exc.kind, message, _attribute_of_field(exc.field))]
+    return [
+        _error(prim, "StaggeredRodsOverlap", message, _attr_of(axis, "radius"), WARN)
+        for _, axis, message in params.geometry_warnings()
+    ]
+
+
 def feather_parameters(prim: Usd.Prim, time_range=None) -> list:
     """Array lengths agree (>= 1) and every value is physical."""
     if prim.IsPseudoRoot() or not _has_feather_api(prim):
@@ -239,6 +285,8 @@ def feather_parameters(prim: Usd.Prim, time_range=None) -> list:
                 errors.append(_error(prim, "NoClasses", "needs at least one ocellar class", name))
         errors += _check_stack_values(prim, arrays)
     errors += _check_scalars(prim)
+    if not errors:
+        errors += _check_lattice(prim)
     if len(next(iter(arrays.values()), [])) > materialx.MAX_CLASSES:
         errors.append(
             _error(

@@ -131,7 +131,7 @@ def pytest_runtest_makereport(item, call):
 @pytest.fixture(scope="session")
 def eye_asset(tmp_path_factory):
     """A converted eye feather shared by the portable-asset tests (256-px maps, 12k/4k/1k
-    triangles, 256² baked textures). Tests that change it work on a copy."""
+    triangles, 256² baked textures; the shipped feathers' freyer2020 preset). Tests that change it work on a copy."""
     reason = missing_system_tools().get("convert")
     if reason:
         pytest.skip(reason)
@@ -142,7 +142,7 @@ def eye_asset(tmp_path_factory):
     write_maps(generate_maps("eye", 256, seed=4), work / "m")
     maps = "\n".join(f'{name} = "m/{name}.png"' for name in MAP_NAMES)
     (work / "eye.toml").write_text(
-        f'name = "eye_feather"\n[maps]\n{maps}\n[material]\npreset = "paper-table1"\n'
+        f'name = "eye_feather"\n[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
         "[geometry]\nlength_cm = 20\nrachis_length = 0.74\n"
         "[geometry.lod]\nhigh = 12000\nmedium = 4000\nlow = 1000\n[bake]\nresolution = 256\n"
     )

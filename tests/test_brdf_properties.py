@@ -12,8 +12,12 @@ from pavonine.materials.brdf import direction
 from pavonine.materials.parameters import preset
 
 TABLE1 = preset("paper-table1")
+FREYER = preset("freyer2020")
 MODEL = optics.model_for(TABLE1)
 INTENSITY_MODEL = optics.model_for(TABLE1.with_(interference="intensity"))
+PHYSICAL_MODEL = optics.model_for(FREYER)
+#: Every interference mode's material (the physical one as shipped: literature preset).
+MODES = {"paper": TABLE1, "intensity": TABLE1.with_(interference="intensity"), "physical": FREYER}
 
 polar = st.one_of(st.floats(0.0, 89.999), st.sampled_from([0.0, 1e-6, 45.0, 89.9, 89.999, 90.0]))
 azimuth = st.floats(0.0, 360.0)
@@ -37,7 +41,7 @@ def test_brdf_is_reciprocal_nonnegative_and_finite(config):
     wi, wo = direction(ti, pi), direction(to, po)
     if below:  # lit from under the vane: two-sided
         wi, wo = wi * [1, 1, -1], wo * [1, 1, -1]
-    for model in (MODEL, INTENSITY_MODEL):
+    for model in (MODEL, INTENSITY_MODEL, PHYSICAL_MODEL):
         f = model.brdf(wi, wo, lam, cls, grad, share)
         g = model.brdf(wo, wi, lam, cls, grad, share)
         assert np.isfinite(f) and f >= 0.0
@@ -64,7 +68,7 @@ def test_brdf_vectorised_matches_scalar():
 def test_directional_albedo_at_most_one(ocellar_class, incidence):
     wavelengths = np.arange(380.0, 781.0, 10.0)
     for gradation in (0.0, 1.0):
-        for params in (TABLE1, TABLE1.with_(interference="intensity")):
+        for params in MODES.values():
             albedo = optics.directional_albedo(
                 params,
                 incidence,

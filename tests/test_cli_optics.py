@@ -34,7 +34,7 @@ def test_spectra_json_summary(runner, tmp_path):
     assert report["files"]["png"] == str(tmp_path / "spectra_blue.png")
     summary = report["spectra"]
     assert [s["observe_deg"] for s in summary] == [10.0, 40.0]
-    assert set(summary[0]) == {"observe_deg", "peak_nm", "fwhm_nm", "srgb"}
+    assert set(summary[0]) == {"observe_deg", "peak_nm", "peak_reflectance", "fwhm_nm", "srgb"}
     assert summary[0]["peak_nm"] > summary[1]["peak_nm"]
     assert 480 < summary[0]["peak_nm"] < 530
 
@@ -109,8 +109,24 @@ def test_figures(runner, tmp_path):
         "fig5_blue.png",
         "fig5_yellow.png",
         "fig7_rod_rows.png",
+        "physical_vs_rcwa.png",
         "table1_swatches.png",
     ]
+
+
+def test_physical_comparison_degrades_without_grcwa(tmp_path, monkeypatch):
+    """Without grcwa (dev extra) the figure is still drawn, without its check points, and says so."""
+    import sys
+
+    import numpy as np
+
+    from pavonine.materials import plots, rcwa
+
+    monkeypatch.setitem(sys.modules, "grcwa", None)  # import grcwa -> ImportError
+    monkeypatch.setattr(rcwa, "lattice_reflectance", lambda _lattice, lam, **_: np.zeros_like(lam))
+    note = plots.physical_comparison(tmp_path / "cmp.png")
+    assert note and "grcwa is not installed" in note
+    assert (tmp_path / "cmp.png").read_bytes()[:4] == b"\x89PNG"
 
 
 @pytest.mark.mitsuba
@@ -155,3 +171,23 @@ def test_maps_rejects_a_negative_seed(runner, tmp_path):
     result = runner.invoke(cli, ["maps", "eye", "-o", str(tmp_path / "m"), "--seed", "-1"])
     assert result.exit_code == 2 and "--seed" in result.output
     assert not (tmp_path / "m").exists()
+
+
+def test_figures_in_the_physical_mode(runner, tmp_path, monkeypatch):
+    """``--interference physical`` draws Figure 5 and the class swatches in the physical mode
+    (the freyer2020 classes); the RCWA figure is stubbed here (it has its own tests)."""
+    from pavonine.materials import plots
+
+    seen = []
+    original = plots.table1_swatches
+
+    def spy(path, params):
+        seen.append(params.interference)
+        return original(path, params)
+
+    monkeypatch.setattr(plots, "table1_swatches", spy)
+    monkeypatch.setattr(plots, "physical_comparison", lambda path: path.write_bytes(b"stub"))
+    result = runner.invoke(cli, ["figures", "-o", str(tmp_path), "--interference", "physical"])
+    assert result.exit_code == 0, result.output
+    assert seen == ["physical"]
+    assert (tmp_path / "fig5_blue.png").stat().st_size > 1000

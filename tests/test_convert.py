@@ -42,7 +42,7 @@ def recipe_text(name: str, map_dir: str = "m", ext: str = "png", extra: str = ""
     maps = "\n".join(f'{m} = "{map_dir}/{m}.{ext}"' for m in MAP_NAMES)
     lod = "\n".join(f"{k} = {v}" for k, v in LOD.items())
     return (
-        f'name = "{name}"\n{extra}[maps]\n{maps}\n[material]\npreset = "paper-table1"\n'
+        f'name = "{name}"\n{extra}[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
         f"{BAKE}{GEOMETRY}[geometry.lod]\n{lod}\n"
     )
 
@@ -381,7 +381,7 @@ def test_batch_in_parallel_keeps_going_and_names_the_failure(workdir, tmp_path):
         path.write_text(recipe_text(name, str(workdir / "m")))
         good.append(path)
     bad = tmp_path / "broken.toml"
-    bad.write_text(recipe_text("broken", str(workdir / "m")).replace("paper-table1", "ostrich"))
+    bad.write_text(recipe_text("broken", str(workdir / "m")).replace("freyer2020", "ostrich"))
     out = tmp_path / "out"
     result = run("convert", str(good[0]), str(bad), str(good[1]), "-o", str(out), "--jobs", "2")
     assert result.exit_code == 2

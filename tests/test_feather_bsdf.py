@@ -19,6 +19,18 @@ import mitsuba as mi
 
 register()
 TABLE1 = preset("paper-table1")
+FREYER = preset("freyer2020")  # the physical mode, as shipped
+#: A physical-mode material whose gradation ends differ (tables with gradation samples).
+GRADED = FREYER.with_(
+    classes=(
+        *FREYER.classes[:5],
+        type(FREYER.classes[5])(
+            long=(FREYER.classes[5].long[0], FREYER.classes[4].long[0]),
+            short=(FREYER.classes[5].short[0], FREYER.classes[3].short[0]),
+            cortex=(0.10, 0.07),
+        ),
+    )
+)
 
 
 def _plugin_dict(
@@ -54,11 +66,22 @@ def _random_directions(rng, n, lower_fraction=0.2):
 
 
 @pytest.mark.parametrize(
-    ("ocellar_class", "gradation", "angle", "share"),
-    [(0, 0.0, 0.0, 1.0), (2, 0.5, 0.25, 1.0), (3, 1.0, 0.6, 0.7), (5, 0.3, 0.9, 0.4)],
+    ("ocellar_class", "gradation", "angle", "share", "params"),
+    [
+        (0, 0.0, 0.0, 1.0, TABLE1),
+        (2, 0.5, 0.25, 1.0, TABLE1),
+        (3, 1.0, 0.6, 0.7, TABLE1),
+        (5, 0.3, 0.9, 0.4, TABLE1),
+        (0, 0.0, 0.1, 1.0, FREYER),
+        (3, 0.5, 0.4, 0.8, FREYER),
+        (4, 0.2, 0.7, 1.0, FREYER),
+        (5, 0.37, 0.9, 0.6, GRADED),
+    ],
+    ids=["paper-0", "paper-2", "paper-3", "paper-5", "phys-0", "phys-3", "phys-4", "phys-graded"],
 )
-def test_plugin_eval_equals_analysis_model(ocellar_class, gradation, angle, share):
-    """The renderer's JIT-compiled eval equals the NumPy model at thousands of configurations."""
+def test_plugin_eval_equals_analysis_model(ocellar_class, gradation, angle, share, params):
+    """The renderer's JIT-compiled eval equals the NumPy model at thousands of configurations
+    (4 000 each, paper and physical mode: 32 000 in all), reading the same tables."""
     rng = np.random.default_rng(ocellar_class)
     n = 4000
     wi = _random_directions(rng, n, 0.0)
@@ -67,13 +90,13 @@ def test_plugin_eval_equals_analysis_model(ocellar_class, gradation, angle, shar
     wi[below, 2] *= -1
     wo[below, 2] *= -1
     lam = rng.uniform(360.0, 830.0, size=(n, 4))
-    bsdf = mi.load_dict(_plugin_dict(ocellar_class, gradation, angle, share))
+    bsdf = mi.load_dict(_plugin_dict(ocellar_class, gradation, angle, share, params))
     value = np.array(bsdf.eval(mi.BSDFContext(), _interaction(wi, lam), mi.Vector3f(*wo.T)))
 
     # The angle map turns the barbule's long axis by angle·180° from the surface tangent.
     c, s = math.cos(angle * math.pi), math.sin(angle * math.pi)
     rot = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
-    model = optics.model_for(TABLE1)
+    model = optics.model_for(params)
     expected = np.stack(
         [
             model.brdf(wi @ rot.T, wo @ rot.T, lam[:, k], ocellar_class, gradation, share)
@@ -84,26 +107,31 @@ def test_plugin_eval_equals_analysis_model(ocellar_class, gradation, angle, shar
     np.testing.assert_allclose(value, expected, rtol=2e-3, atol=2e-5)
 
 
-def test_plugin_eval_is_reciprocal():
+@pytest.mark.parametrize("params", [TABLE1, GRADED], ids=["paper", "physical"])
+def test_plugin_eval_is_reciprocal(params):
     rng = np.random.default_rng(7)
     n = 2000
     wi, wo = _random_directions(rng, n), _random_directions(rng, n)
     wo[:, 2] = np.abs(wo[:, 2]) * np.sign(wi[:, 2])
     lam = np.tile([450.0, 520.0, 600.0, 680.0], (n, 1))
-    bsdf = mi.load_dict(_plugin_dict(3, 0.4, 0.3, 0.8))
+    bsdf = mi.load_dict(_plugin_dict(3, 0.4, 0.3, 0.8, params))
     ctx = mi.BSDFContext()
     f_io = np.array(bsdf.eval(ctx, _interaction(wi, lam), mi.Vector3f(*wo.T))) / np.abs(wo[:, 2])
     f_oi = np.array(bsdf.eval(ctx, _interaction(wo, lam), mi.Vector3f(*wi.T))) / np.abs(wi[:, 2])
     np.testing.assert_allclose(f_io, f_oi, rtol=1e-3, atol=1e-6)
 
 
+@pytest.mark.parametrize("mode", ["paper", "physical"])
 @pytest.mark.parametrize("ocellar_class", range(6))
 @pytest.mark.parametrize("incidence", [0.0, 40.0, 75.0])
-def test_sampling_passes_chi2(ocellar_class, incidence):
+def test_sampling_passes_chi2(ocellar_class, incidence, mode):
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
+    params = FREYER if mode == "physical" else TABLE1
     wi = [float(v) for v in direction(incidence, 30.0)]
-    sample, pdf = BSDFAdapter(PLUGIN_NAME, _plugin_dict(ocellar_class, 0.5, 0.2, 0.7), wi=wi)
+    sample, pdf = BSDFAdapter(
+        PLUGIN_NAME, _plugin_dict(ocellar_class, 0.5, 0.2, 0.7, params), wi=wi
+    )
     test = ChiSquareTest(
         domain=SphericalDomain(),
         sample_func=sample,
@@ -114,10 +142,11 @@ def test_sampling_passes_chi2(ocellar_class, incidence):
     assert test.run(), test.messages
 
 
+@pytest.mark.parametrize("params", [TABLE1, FREYER, GRADED], ids=["paper", "physical", "graded"])
 @pytest.mark.parametrize("ocellar_class", range(6))
-def test_white_furnace_albedo_at_most_one(ocellar_class):
+def test_white_furnace_albedo_at_most_one(ocellar_class, params):
     rng = np.random.default_rng(11)
-    bsdf = mi.load_dict(_plugin_dict(ocellar_class, 1.0, 0.0, 1.0))
+    bsdf = mi.load_dict(_plugin_dict(ocellar_class, 1.0, 0.0, 1.0, params))
     n = 100_000
     for incidence in (0.0, 45.0, 80.0, 89.0):
         wi = np.tile(direction(incidence, 60.0), (n, 1))

@@ -152,3 +152,34 @@ def test_whole_float_layer_counts_are_accepted(tmp_path):
     recipe = parse_recipe(_write(tmp_path, MINIMAL + "[material.class.0.long]\ncount = [3.0, 7]\n"))
     black, white = recipe.material.classes[0].long
     assert (black.count, white.count) == (3, 7)
+
+
+def test_physical_mode_keys_reach_the_material(tmp_path):
+    text = MINIMAL.replace('"paper-table1"', '"freyer2020"') + (
+        'lattice = "rectangular"\nmelanin_dispersion = [1.7, 20000]\nmelanin_absorption = [0.3, 250]\n'
+        "keratin_dispersion = [1.55, 0]\n"
+        "[material.class.2]\ncortex = [0.1, 0.12]\n"
+        "[material.class.2.long]\nspacing = 0.2\nchannel = 0.04\n"
+    )
+    params = parse_recipe(_write(tmp_path, text)).material
+    assert params.interference == "physical" and params.lattice == "rectangular"
+    assert (params.melanin.cauchy_a, params.melanin.extinction) == pytest.approx((1.7, 0.3))
+    assert params.melanin.extinction_scale == pytest.approx(250.0)
+    assert params.keratin.cauchy_b == 0.0
+    assert params.classes[2].cortex == pytest.approx((0.1, 0.12))
+    assert params.classes[2].long[0].spacing == pytest.approx(0.2)
+    assert params.classes[2].long[1].channel == pytest.approx(0.04)
+
+
+@pytest.mark.parametrize(
+    ("extra", "key"),
+    [
+        ("melanin_dispersion = [1.7]\n", "material.melanin_dispersion"),
+        ('lattice = "hexagonal"\n', "material.lattice"),
+        ("[material.class.5.long]\nspacing = 0.09\n", "material.class.5.long.spacing"),
+        ("[material.class.5]\nthickness = 0.1\n", "material.class.5.thickness"),
+    ],
+)
+def test_physical_mode_errors_name_the_key(tmp_path, extra, key):
+    text = MINIMAL.replace('"paper-table1"', '"freyer2020"') + extra
+    assert key in str(_error(tmp_path, text))

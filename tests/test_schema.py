@@ -250,7 +250,7 @@ def test_round_trip_presets_through_a_file(tmp_path):
 
     path = tmp_path / "feathers.usda"
     stage = Usd.Stage.CreateNew(str(path))
-    names = ("paper-table1", "yellow", "blue")
+    names = ("paper-table1", "freyer2020", "yellow", "blue")
     for name in names:
         create_feather_material(stage, f"/Looks/{name.replace('-', '_')}", preset(name))
     stage.GetRootLayer().Save()

@@ -90,7 +90,9 @@ def test_missing_file_exits_2():
     assert code == 2 and "no such file" in err
 
 
-def authored_asset(tmp_path: Path, **map_kwargs) -> tuple[Path, object]:
+def authored_asset(
+    tmp_path: Path, material: str = "freyer2020", **map_kwargs
+) -> tuple[Path, object]:
     from pxr import Usd, UsdGeom
 
     maps = {
@@ -102,7 +104,7 @@ def authored_asset(tmp_path: Path, **map_kwargs) -> tuple[Path, object]:
     stage = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 0.01)
-    material = create_feather_material(stage, "/Feather", preset("paper-table1"), maps)
+    material = create_feather_material(stage, "/Feather", preset(material), maps)
     stage.SetDefaultPrim(material.GetPrim())
     stage.GetRootLayer().Save()
     return tmp_path / "asset.usda", stage
@@ -114,6 +116,24 @@ def test_authored_asset_with_maps_is_clean_and_json(tmp_path):
     assert (code, out) == (0, "1 file, no findings\n"), out + err
     code, out, _ = run("--json", "-", str(path))
     assert code == 0 and json.loads(out) == {"files": 1, "findings": [], "unreadable": []}
+
+
+def test_paper_table1_warns_about_staggered_rods_per_class_and_axis(tmp_path):
+    """Table 1's class 4 short axis (d = 0.11 um, a = 0.065 um) fails d >= sqrt(3)*a: a warning in
+    the paper mode naming class and axis, an error once the material is switched to physical."""
+    path, stage = authored_asset(tmp_path, "paper-table1")
+    code, out, _ = run("--json", "-", str(path))
+    findings = json.loads(out)["findings"]
+    assert code == 0
+    assert [(f["severity"], f["field"]) for f in findings] == [
+        ("WARNING", "pavonine:short:rodRadius")
+    ]
+    assert "class 4 short axis" in findings[0]["message"]
+    stage.GetPrimAtPath("/Feather").GetAttribute("pavonine:interference").Set("physical")
+    stage.GetRootLayer().Save()
+    code, out, _ = run("--json", "-", str(path))
+    errors = [f for f in json.loads(out)["findings"] if f["severity"] == "ERROR"]
+    assert code == 1 and "class[4].short" in errors[0]["message"], errors
 
 
 def test_drifted_derived_shader_is_an_error(tmp_path):

@@ -21,7 +21,8 @@ LLVM variant is available), whatever the model's interference mode. Colours outs
 gamut are clipped to it.
 
 **Thin film.** Index: the rod layer's effective index ``n_eff = n_0 + f·(n_ml − n_0)``,
-``f = π a / (2 d)`` (Eq. 1), of the two barbule axes weighted by ``cos²ψ : sin²ψ`` of the
+``f = π a / (2 d)`` (Eq. 1; in the physical mode with the real parts of the dispersive melanin
+and keratin indices at the texel's peak wavelength), of the two barbule axes weighted by ``cos²ψ : sin²ψ`` of the
 reference half-vector (Eq. 7). Thickness: ``t = ¾ λ_peak / n_eff``, the film whose first-order
 reflection peak (``2 n t = (m + ½) λ``, ``m = 1``: one π shift, at the air/film interface, as in
 ``materials/pavonine_feather.mtlx``) falls on the texel's peak wavelength ``λ_peak`` of ``S``.
@@ -122,7 +123,6 @@ def _structure_jit(params, k, t, wi, wo) -> Structure:
     material = JitMaterial(params)
     n, count = len(k), len(WAVELENGTHS_NM)
     spectra = np.empty((n, count), dtype=np.float64)
-    stacks = np.empty((n, 4), dtype=np.float64)
     table = mi.Float(WAVELENGTHS_NM.astype(np.float32))
     step = max(1, LANES // count)
     for start in range(0, n, step):
@@ -142,35 +142,51 @@ def _structure_jit(params, k, t, wi, wo) -> Structure:
         ]
         wavelengths = dr.gather(mi.Float, table, band)
         value = material.brdf(*directions, wavelengths, long_stack, short_stack, mi.Float(1.0))
-        first = dr.arange(mi.UInt32, end - start) * count
-        per_texel = [dr.gather(mi.Float, q, first) for q in (*long_stack[:2], *short_stack[:2])]
-        dr.eval(value, *per_texel)
+        dr.eval(value)
         spectra[start:end] = math.pi * np.asarray(value, dtype=np.float64).reshape(-1, count)
-        stacks[start:end] = np.stack([np.asarray(q) for q in per_texel], axis=1)
-    return Structure(spectra, (stacks[:, 0], stacks[:, 1]), (stacks[:, 2], stacks[:, 3]))
+    return Structure(spectra, *stack_dimensions(params, k, t))
 
 
 def _structure_numpy(params, k, t, wi, wo) -> Structure:
     model = optics.model_for(params)
     steps = np.rint(np.clip(t, 0.0, 1.0) * FALLBACK_STEPS).astype(np.int64)
     spectra = np.empty((len(k), len(WAVELENGTHS_NM)))
-    stacks = np.empty((len(k), 4))
     for key in np.unique(k * (FALLBACK_STEPS + 1) + steps):
         klass, step = divmod(int(key), FALLBACK_STEPS + 1)
         group = (k == klass) & (steps == step)
         gradation = step / FALLBACK_STEPS
         f = model.brdf(wi[group, None, :], wo[group, None, :], WAVELENGTHS_NM, klass, gradation)
         spectra[group] = math.pi * f
-        long_nm, short_nm = model.stacks_nm(klass, gradation)
-        stacks[group] = (*long_nm[:2], *short_nm[:2])
-    return Structure(spectra, (stacks[:, 0], stacks[:, 1]), (stacks[:, 2], stacks[:, 3]))
+    return Structure(spectra, *stack_dimensions(params, k, t))
 
 
-def effective_index(params: FeatherParameters, interval_nm, radius_nm) -> np.ndarray:
-    """``n_eff = D / d`` of a rod layer (Eq. 1)."""
-    distance = optics.optical_distance(
-        interval_nm, radius_nm, params.melanin_index, params.medium_index
+def stack_dimensions(
+    params: FeatherParameters, k: np.ndarray, t: np.ndarray
+) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Per texel, the long and short axes' ``(interval_nm, radius_nm)``: each class's black and
+    white ends interpolated by the gradation ``t`` (Table 1 / the preset), in every mode."""
+    arrays = params.class_arrays()
+    t = np.clip(np.asarray(t, dtype=np.float64), 0.0, 1.0)
+
+    def lerp(name: str) -> np.ndarray:
+        black, white = arrays[name][k, 0], arrays[name][k, 1]
+        return 1e3 * (black + (white - black) * t)  # µm → nm
+
+    return tuple(  # type: ignore[return-value]
+        (lerp(f"{axis}_interval"), lerp(f"{axis}_radius")) for axis in ("long", "short")
     )
+
+
+def effective_index(
+    params: FeatherParameters, interval_nm, radius_nm, wavelength_nm=None
+) -> np.ndarray:
+    """``n_eff = D / d`` of a rod layer (Eq. 1); in the physical mode with the dispersive
+    melanin and keratin indices (real parts) at ``wavelength_nm``."""
+    if params.interference == "physical" and wavelength_nm is not None:
+        n_rod, n_medium = params.melanin.real(wavelength_nm), params.keratin.real(wavelength_nm)
+    else:
+        n_rod, n_medium = params.melanin_index, params.medium_index
+    distance = optics.optical_distance(interval_nm, radius_nm, n_rod, n_medium)
     return distance / interval_nm
 
 
@@ -213,10 +229,10 @@ def texel_appearance(
     h = wi + wo
     across = h[:, 0] ** 2 + h[:, 1] ** 2
     cos2_psi = np.where(across > 1e-12, h[:, 0] ** 2 / np.maximum(across, 1e-12), 0.5)
-    film_ior = cos2_psi * effective_index(params, *found.long) + (1.0 - cos2_psi) * effective_index(
-        params, *found.short
-    )
     peak = WAVELENGTHS_NM[np.argmax(found.spectra, axis=1)]
+    film_ior = cos2_psi * effective_index(params, *found.long, peak) + (
+        1.0 - cos2_psi
+    ) * effective_index(params, *found.short, peak)
     return TexelAppearance(
         base_color=np.clip(base, 0.0, 1.0),
         alpha=bilinear("alpha", 1.0),

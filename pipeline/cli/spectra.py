@@ -101,6 +101,9 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
     if interference:
         params = params.with_(interference=interference)
     params.validate()
+    for k, _axis, message in params.geometry_warnings():
+        if k == (ocellar_class or 0):  # only the plotted class's geometry concerns this plot
+            click.echo(f"warning: {message}", err=True)
     if ocellar_class is not None:
         params.stacks(ocellar_class, 0.0)
         label += f"_class{ocellar_class}"
@@ -113,7 +116,7 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
     "preset_name",
     default="paper-table1",
     show_default=True,
-    help="paper-table1, yellow or blue.",
+    help="paper-table1, freyer2020, yellow or blue.",
 )
 @click.option(
     "--class",
@@ -132,9 +135,10 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 @click.option("--layers", type=float, default=None, help="Number of layers N_d.")
 @click.option(
     "--interference",
-    type=click.Choice(["paper", "intensity"]),
+    type=click.Choice(["paper", "intensity", "physical"]),
     default=None,
-    help="Eq. 3/4 as printed (|Σ|/N) or intensity (|Σ|²/N²).",
+    help="Eq. 3/4 as printed (|Σ|/N), intensity (|Σ|²/N²), or physical (exact transfer matrix "
+    "of the rod lattice, real melanin and keratin). Default: the preset's.",
 )
 @click.option(
     "--incidence",
@@ -243,7 +247,7 @@ def _print_table(label, incidence, summaries, colour: bool) -> None:
     from rich.table import Table
 
     table = Table(title=f"{label}, incidence {incidence:g}°")
-    for column in ("observe", "peak (nm)", "FWHM (nm)", "sRGB", "colour"):
+    for column in ("observe", "peak (nm)", "peak πf", "FWHM (nm)", "sRGB", "colour"):
         table.add_column(column, justify="right")
     for s in summaries:
         r, g, b = (round(255 * c) for c in s.srgb)
@@ -251,6 +255,7 @@ def _print_table(label, incidence, summaries, colour: bool) -> None:
         table.add_row(
             f"{s.observe_deg:g}°",
             f"{s.peak_nm:.1f}",
+            f"{s.peak_value:.3f}",
             width,
             f"#{r:02x}{g:02x}{b:02x}",
             f"[on #{r:02x}{g:02x}{b:02x}]      [/]",

@@ -497,12 +497,19 @@ def barb_direction_field(displacement: np.ndarray, max_size: int = 768) -> np.nd
 
 
 def sample_direction(field: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear lookup of a 2-D direction field at feather-space points, renormalised."""
-    du = sample_bilinear(field[..., 0], uv)
-    dv = sample_bilinear(field[..., 1], uv)
-    out = np.stack([du, dv], axis=1).astype(np.float64)
-    norm = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.where(norm > 1e-6, out / np.maximum(norm, 1e-12), np.array([[0.0, 1.0]]))
+    """Bilinear lookup of a 2-D axis field at feather-space points, as unit vectors (``dv ≥ 0``).
+
+    An axis has no sign, and the field flips sign where its axis turns through horizontal, so it
+    is interpolated as the doubled angle ``(cos 2φ, sin 2φ)``: interpolating the vectors themselves
+    would average ``v`` and ``−v`` to nothing there and draw a seam.
+    """
+    du, dv = field[..., 0].astype(np.float64), field[..., 1].astype(np.float64)
+    c2 = sample_bilinear(du * du - dv * dv, uv)
+    s2 = sample_bilinear(2.0 * du * dv, uv)
+    phi = 0.5 * np.arctan2(s2, c2)
+    out = np.stack([np.cos(phi), np.sin(phi)], axis=1)
+    out *= np.where(out[:, 1:] < 0.0, -1.0, 1.0)
+    return np.where(np.hypot(c2, s2)[:, None] > 1e-6, out, np.array([[0.0, 1.0]]))
 
 
 def prefilter(values: np.ndarray, spacing_uv: float) -> np.ndarray:

@@ -16,8 +16,10 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import (
     AXES,
+    STACK_QUANTITIES,
     FeatherParameters,
     LayerStack,
     OcellarClass,
@@ -94,9 +96,16 @@ _MATERIAL_SCALARS = {
     "block_sigma_deg": float,
     "rod_length_um": float,
     "interference": str,
+    "lattice": str,
     "melanin_color": list,
 }
-_STACK_KEYS = {"interval": "interval", "radius": "radius", "count": "count"}
+#: Dispersive materials of the physical mode: recipe key -> (field, Dispersion parts), [a, b] each.
+_DISPERSION_KEYS = {
+    "melanin_dispersion": ("melanin", ("cauchy_a", "cauchy_b")),
+    "melanin_absorption": ("melanin", ("extinction", "extinction_scale")),
+    "keratin_dispersion": ("keratin", ("cauchy_a", "cauchy_b")),
+}
+_STACK_KEYS = {q: q for q in STACK_QUANTITIES}
 
 
 def _fail(path: Path, key: str, message: str) -> InputError:
@@ -242,10 +251,19 @@ def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> Feathe
             )
         if not isinstance(axes, dict):
             raise _fail(path, prefix, "expected a table with 'long' and/or 'short'")
-        _check_keys(path, axes, set(AXES), f"{prefix}.")
+        _check_keys(path, axes, {*AXES, "cortex"}, f"{prefix}.")
         k = int(index_key)
         per_axis = {axis: getattr(classes[k], axis) for axis in AXES}
-        for axis, cells in axes.items():
+        cortex = classes[k].cortex
+        if "cortex" in axes:
+            value = axes["cortex"]
+            items = value if isinstance(value, list) else [value]
+            if len(items) not in (1, 2):
+                raise _fail(path, f"{prefix}.cortex", "expected a number or [black, white]")
+            for item in items:
+                _number(path, f"{prefix}.cortex", item, positive=False)
+            cortex = tuple(float(_stack_end(value, end)) for end in (0, 1))
+        for axis, cells in ((a, c) for a, c in axes.items() if a != "cortex"):
             if not isinstance(cells, dict):
                 raise _fail(path, f"{prefix}.{axis}", "expected a table of interval/radius/count")
             _check_keys(path, cells, set(_STACK_KEYS), f"{prefix}.{axis}.")
@@ -255,7 +273,7 @@ def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> Feathe
                 if len(items) not in (1, 2):
                     raise _fail(path, key, "expected a number or [black, white]")
                 for item in items:
-                    _number(path, key, item)
+                    _number(path, key, item, positive=qty not in ("spacing", "channel"))
                     if qty == "count":
                         _check_count(path, key, item)
             ends = []
@@ -263,13 +281,14 @@ def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> Feathe
                 old = per_axis[axis][end]
                 ends.append(
                     LayerStack(
-                        float(_stack_end(cells.get("interval", old.interval), end)),
-                        float(_stack_end(cells.get("radius", old.radius), end)),
-                        float(_stack_end(cells.get("count", old.count), end)),
+                        *(
+                            float(_stack_end(cells.get(q, getattr(old, q)), end))
+                            for q in STACK_QUANTITIES
+                        )
                     )
                 )
             per_axis[axis] = tuple(ends)
-        classes[k] = OcellarClass(**per_axis)
+        classes[k] = OcellarClass(**per_axis, cortex=cortex)
     return params.with_(classes=tuple(classes))
 
 
@@ -287,7 +306,7 @@ def parameter_key(field_name: str) -> str:
 
 
 def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
-    allowed = {"preset", "class", *_MATERIAL_SCALARS}
+    allowed = {"preset", "class", *_MATERIAL_SCALARS, *_DISPERSION_KEYS}
     _check_keys(path, table, allowed, "material.")
     name = table.get("preset", "paper-table1")
     if not isinstance(name, str):
@@ -312,6 +331,18 @@ def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
             if not (isinstance(value, list) and len(value) == 3):
                 raise _fail(path, dotted, "expected [r, g, b] (linear sRGB)")
             changes[key] = tuple(float(_number(path, dotted, c, positive=False)) for c in value)
+    for key, (field_name, parts) in _DISPERSION_KEYS.items():
+        if key not in table:
+            continue
+        value = table[key]
+        dotted = f"material.{key}"
+        if not (isinstance(value, list) and len(value) == 2):
+            raise _fail(path, dotted, f"expected [{parts[0]}, {parts[1]}]")
+        current = changes.get(field_name, getattr(params, field_name))
+        numbers = [float(_number(path, dotted, v, positive=False)) for v in value]
+        changes[field_name] = Dispersion(
+            **{**vars(current), **dict(zip(parts, numbers, strict=True))}
+        )
     params = params.with_(**changes)
     if "class" in table:
         if not isinstance(table["class"], dict):

@@ -177,11 +177,29 @@ def _melanin_fade(
     return np.where(alpha > 0.0, share, floor).astype(np.float32)
 
 
-def _barbule_angle(cv: _Canvas, base_deg: float, spread_deg: float, noise: np.ndarray):
-    """Barbules 30–40° off their barb (paper §3.3.4), mirrored across the rachis."""
+def _barbule_angle(
+    cv: _Canvas,
+    base_deg: float,
+    spread_deg: float,
+    noise: np.ndarray,
+    rachis_tip: float,
+    unmirrored: np.ndarray | float = 0.0,
+):
+    """Barbules 30–40° off their barb (paper §3.3.4), mirrored across the rachis.
+
+    The mirror turns the angle ``θ`` into ``180° − θ``; the turn is continuous (a smooth ramp
+    through 90° within a rachis width of the centre line, hidden under the shaft; never through
+    0°/180°, where the grey level would wrap and bilinear filtering would draw a line), and above
+    the rachis tip, where no shaft covers the centre line, it widens so no line is drawn through
+    the vane. ``unmirrored`` (0…1) keeps one side's angle where barbs radiate from a centre (the
+    eye), so the angle turns with them and shows no seam at all.
+    """
     across = np.clip(np.abs(cv.x) / (cv.aspect / 2), 0.0, 1.0)
     magnitude = base_deg + spread_deg * across + 1.5 * noise
-    return angle_grey(np.where(cv.x >= 0, magnitude, -magnitude))
+    width = 0.006 + 0.25 * _smoothstep(rachis_tip - 0.02, rachis_tip + 0.1, cv.y)
+    side = 2.0 * _smoothstep(-width, width, cv.x) - 1.0
+    side = side + (1.0 - side) * unmirrored
+    return angle_grey(90.0 - (90.0 - magnitude) * side)
 
 
 # --------------------------------------------------------------------------- kinds
@@ -222,7 +240,7 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     klass = np.where(y > 0.40 + 0.03 * edge_noise, 1, 0)
     for cls, (dy, ax, ay) in zip(
         (2, 3, 4, 5),
-        ((0.030, 0.158, 0.205), (0.024, 0.140, 0.178), (0.012, 0.098, 0.120), (0.0, 0.058, 0.070)),
+        ((0.012, 0.142, 0.176), (0.010, 0.125, 0.153), (0.005, 0.088, 0.106), (0.0, 0.053, 0.063)),
         strict=True,
     ):
         shape = notch if cls == 5 else 1.0
@@ -231,11 +249,19 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     klass = np.where(solid > 0, klass, 0)
 
     gradation = np.clip(_smoothstep(0.30, 0.98, y) + 0.04 * cv.noise(0.08), 0.0, 1.0)
-    angle = _barbule_angle(cv, 32.0, 6.0, cv.noise(0.06))
+    angle = _barbule_angle(cv, 32.0, 6.0, cv.noise(0.06), cy, radial_weight)
     grain = cv.noise(0.01)
     displacement = solid * np.clip(0.78 * ridge + 0.12 + 0.05 * grain + 0.05 * edge_noise, 0, 1)
     melanin = _melanin_fade(cv, solid, 0.05, 0.15, cv.noise(0.05))
     melanin = melanin * (1.0 - 0.35 * loose)
+    # The heart's barbules carry melanin rods on only part of their front (TEM in "Ultraviolet
+    # reflectance structures of peacock feathers"), so it shows less structural colour: a dark
+    # blue-violet rather than the bright violet of its layer structure alone.
+    heart = ndimage.gaussian_filter((klass == 5).astype(np.float32), 1.5 * cv.height / 1024)
+    melanin = melanin * (1.0 - 0.35 * heart)
+    # The vane around the eye is brass-green, duller than the rings: less structural colour.
+    vane = ndimage.gaussian_filter((klass <= 1).astype(np.float32), 3.0 * cv.height / 1024)
+    melanin = melanin * (1.0 - 0.3 * vane)
     return {
         "alpha": alpha,
         "ocellar": ocellar_grey(klass),
@@ -266,7 +292,7 @@ def _contour_feather(
     downy = 1.0 - _smoothstep(downy_until - 0.08, downy_until + 0.08, y + 0.03 * edge_noise)
     alpha = _fringe(cv, ridge, solid, 0.025 + 0.08 * downy)
     gradation = np.clip(_smoothstep(0.1, 1.0, y) + 0.05 * cv.noise(0.1), 0.0, 1.0)
-    angle = _barbule_angle(cv, 34.0, 5.0, cv.noise(0.06))
+    angle = _barbule_angle(cv, 34.0, 5.0, cv.noise(0.06), 0.9)
     grain = cv.noise(0.012)
     displacement = solid * np.clip(0.75 * ridge + 0.15 + 0.06 * grain, 0.0, 1.0)
     melanin = _melanin_fade(cv, solid, 0.06, melanin_floor, cv.noise(0.05))
