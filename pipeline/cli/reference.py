@@ -44,9 +44,9 @@ Every command follows the same rules (`pavonine/pipeline/cli/options.py` impleme
   extra) and nothing written; 1 where a command documents a "findings"/"differ" outcome.
 * **Extras**: `pip install pavonine` has the optics and the schema (`spectra`, `figures`, `maps`,
   `validate`, `compare --method stat`, `baseline list`, `env`, `doctor`; PNGs through the pinned
-  config's default view without OpenColorIO); `[convert]` adds `convert`, `[render]` adds
-  `render`, `check-renders`, `baseline update`, FLIP and reports in `compare`, and every other
-  OCIO view or config; `demo` needs both (`[all]`). Each command below says which extra it needs;
+  config's default view without OpenColorIO); `[convert]` adds `convert`, `bake`, `package`,
+  `export`; `[render]` adds `render`, `check-renders`, `baseline update`, FLIP and reports in
+  `compare`, and every other OCIO view or config; `demo` needs both (`[all]`). Each command below says which extra it needs;
   a command whose extra is missing says which one to install, on one line, and exits with 2.
 * **Shell completion** (click's): `eval "$(_PAVONINE_COMPLETE=bash_source pavonine)"` in
   `~/.bashrc`; `zsh_source` for zsh (`~/.zshrc`);
