@@ -1,21 +1,31 @@
-# Two entry points, both safe on a fresh machine: `make demo` and `make test`.
+# The README's two commands, both safe on a fresh machine: `make demo` and `make test`.
+# Both first run .ci/setup once (again when pyproject.toml, constraints.txt or .ci/setup change):
+# Debian packages where it can (root and apt-get), else it says what to install; then the project's
+# own virtual environment .venv with Pavonine and every extra, at the versions of constraints.txt.
 PYTHON ?= python3
-STAMP := .venv-stamp
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.pavonine-setup
 
-.PHONY: setup demo test lint
+.PHONY: setup demo test lint lock
 
-$(STAMP): pyproject.toml .ci/setup
-	bash .ci/setup
+$(STAMP): pyproject.toml constraints.txt .ci/setup
+	PYTHON="$(PYTHON)" VENV="$(VENV)" bash .ci/setup
 	@touch $(STAMP)
 
 setup: $(STAMP)
 
 demo: $(STAMP)
-	pavonine demo out/demo
+	$(BIN)/pavonine demo -o out/demo
 
 lint: $(STAMP)
-	ruff check .
-	ruff format --check .
+	$(BIN)/python -m ruff check .
+	$(BIN)/python -m ruff format --check .
 
+# The environment's bin first: wheels bring command-line tools the tests run (mxvalidate, oiiotool).
 test: lint
-	$(PYTHON) -m pytest
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest
+
+# Re-pin constraints.txt to the versions installed in .venv (after changing a dependency).
+lock: $(STAMP)
+	$(BIN)/python .ci/lock.py > constraints.txt

@@ -52,9 +52,9 @@ def timed_batch(workers: int, threads: int, jobs, warm, spp: int) -> tuple[float
     with open_cluster(workers, threads=threads) as cluster:
         cluster.client.wait_for_workers(workers)
         up = time.perf_counter() - start
-        run_batch(warm[:workers], spp=1, view="Un-tone-mapped", cluster=cluster, progress=False)
+        run_batch(warm[:workers], spp=1, cluster=cluster, progress=False)
         begin = time.perf_counter()
-        report = run_batch(jobs, spp=spp, view="Un-tone-mapped", cluster=cluster, progress=False)
+        report = run_batch(jobs, spp=spp, cluster=cluster, progress=False)
         return up, time.perf_counter() - begin, report
 
 

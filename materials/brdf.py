@@ -214,6 +214,14 @@ def stack_in_nm(stack: LayerStack) -> tuple[float, float, float]:
 
 @functools.cache
 def _melanin_coefficients(color: tuple[float, float, float]) -> np.ndarray:
+    """Mitsuba's upsampling coefficients of ``color``; without Mitsuba, the same fit in NumPy
+    (:mod:`pavonine.materials.upsampling`, checked against Mitsuba's in the tests)."""
+    try:
+        import mitsuba  # noqa: F401
+    except ImportError:
+        from pavonine.materials.upsampling import fit_sigmoid_polynomial
+
+        return fit_sigmoid_polynomial(color)
     from pavonine.backend import select_variant
 
     select_variant()

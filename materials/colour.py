@@ -2,12 +2,14 @@
 
 One colour pipeline for analysis and rendering:
 
-* CIE 1931 2° colour-matching functions and the CIE D65 illuminant are taken from Mitsuba
-  (``mi.cie1931_xyz``, Wyman, Sloan & Shirley 2013 multi-lobe fit; ``mi.cie_d65``), the very
-  functions Mitsuba's spectral film integrates with.
-* XYZ → linear Rec.709/sRGB uses Mitsuba's ``mi.xyz_to_srgb`` matrix.
-* Display encoding goes through OpenColorIO's built-in CG config, display ``sRGB - Display``,
-  view ``Un-tone-mapped`` by default — the same transform ``pavonine render --png`` applies.
+* CIE 1931 2° colour-matching functions and the CIE D65 illuminant are Mitsuba's own
+  (``mi.cie1931_xyz``, ``mi.cie_d65``: the CIE tables, linearly interpolated), tabulated at 1 nm in
+  ``data/cie1931_d65_1nm.csv`` so that analysis needs no Mitsuba; ``tests/test_colour_tables.py``
+  checks the table against Mitsuba.
+* XYZ → linear Rec.709/sRGB uses Mitsuba's ``mi.xyz_to_srgb`` matrix (:data:`XYZ_TO_SRGB`).
+* Display encoding goes through the current OpenColorIO display transform
+  (:mod:`pavonine.materials.display`): by default the pinned built-in CG config, display
+  ``sRGB - Display``, view ``Un-tone-mapped`` — the same transform ``pavonine render --png`` applies.
 
 A reflectance spectrum R(λ) lit by D65 gives tristimulus values
 ``X = ∫ R S x̄ dλ / ∫ S ȳ dλ`` (CIE 15:2004 §7.1), so a perfect white reflector has Y = 1 and
@@ -18,49 +20,45 @@ from __future__ import annotations
 
 import functools
 import math
+from pathlib import Path
 
 import numpy as np
 
+from pavonine.materials.display import DEFAULT_VIEW as DEFAULT_VIEW  # re-exported
+from pavonine.materials.display import DISPLAY as DISPLAY
+from pavonine.materials.display import SCENE_LINEAR as SCENE_LINEAR
+from pavonine.materials.display import current_display, with_overrides
+
 CIE_RANGE_NM = (360.0, 830.0)  # Mitsuba's MI_CIE_MIN, MI_CIE_MAX
-OCIO_CONFIG = "ocio://cg-config-latest"
-SCENE_LINEAR = "Linear Rec.709 (sRGB)"
-DISPLAY = "sRGB - Display"
-DEFAULT_VIEW = "Un-tone-mapped"
+CIE_TABLE = Path(__file__).with_name("data") / "cie1931_d65_1nm.csv"
+#: XYZ → linear sRGB (Rec.709 primaries, D65), Mitsuba's ``xyz_to_srgb`` (float32 constants).
+XYZ_TO_SRGB = np.array(
+    [
+        [3.240479, -1.537150, -0.498535],
+        [-0.969256, 1.875991, 0.041556],
+        [0.055648, -0.204043, 1.057311],
+    ],
+    dtype=np.float32,
+).astype(np.float64)
 
 
 @functools.cache
-def _mitsuba_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(λ grid, CMFs (n, 3), D65 (n,), XYZ→sRGB matrix) evaluated once with Mitsuba."""
-    from pavonine.backend import select_variant
-
-    select_variant()
-    import drjit as dr
-    import mitsuba as mi
-
-    grid = np.arange(CIE_RANGE_NM[0], CIE_RANGE_NM[1] + 0.5, 1.0)
-    if dr.is_jit_v(mi.Float):
-        lam = mi.Float(grid)
-        cmf = np.array(mi.cie1931_xyz(lam)).T
-        d65 = np.array(mi.cie_d65(lam))
-        basis = mi.Color3f(mi.Float([1, 0, 0]), mi.Float([0, 1, 0]), mi.Float([0, 0, 1]))
-        matrix = np.array(mi.xyz_to_srgb(basis))
-    else:
-        cmf = np.array([np.array(mi.cie1931_xyz(float(w))) for w in grid])
-        d65 = np.array([float(mi.cie_d65(float(w))) for w in grid])
-        matrix = np.array([np.array(mi.xyz_to_srgb(mi.Color3f(*e))) for e in np.eye(3)]).T
-    return grid, cmf.astype(np.float64), d65.astype(np.float64), matrix.astype(np.float64)
+def _tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(λ grid, CMFs (n, 3), D65 (n,)) read once from :data:`CIE_TABLE`."""
+    table = np.loadtxt(CIE_TABLE, delimiter=",", comments="#", skiprows=5, dtype=np.float64)
+    return table[:, 0], table[:, 1:4], table[:, 4]
 
 
 def cmfs(wavelengths_nm: np.ndarray) -> np.ndarray:
     """CIE 1931 2° x̄, ȳ, z̄ at ``wavelengths_nm`` (shape (..., 3)); zero outside 360–830 nm."""
-    grid, cmf, _, _ = _mitsuba_tables()
+    grid, cmf, _ = _tables()
     w = np.asarray(wavelengths_nm, dtype=np.float64)
     return np.stack([np.interp(w, grid, cmf[:, i], left=0.0, right=0.0) for i in range(3)], -1)
 
 
 def d65(wavelengths_nm: np.ndarray) -> np.ndarray:
     """Relative spectral power of CIE D65 at ``wavelengths_nm`` (Mitsuba's normalisation)."""
-    grid, _, spd, _ = _mitsuba_tables()
+    grid, _, spd = _tables()
     return np.interp(np.asarray(wavelengths_nm, dtype=np.float64), grid, spd, left=0.0, right=0.0)
 
 
@@ -78,8 +76,7 @@ def reflectance_to_xyz(wavelengths_nm: np.ndarray, reflectance: np.ndarray) -> n
 
 def xyz_to_linear_srgb(xyz: np.ndarray) -> np.ndarray:
     """XYZ → scene-linear Rec.709 (sRGB primaries, D65 white), Mitsuba's matrix."""
-    _, _, _, matrix = _mitsuba_tables()
-    return np.asarray(xyz, dtype=np.float64) @ matrix.T
+    return np.asarray(xyz, dtype=np.float64) @ XYZ_TO_SRGB.T
 
 
 def reflectance_to_linear_srgb(wavelengths_nm: np.ndarray, reflectance: np.ndarray) -> np.ndarray:
@@ -87,20 +84,10 @@ def reflectance_to_linear_srgb(wavelengths_nm: np.ndarray, reflectance: np.ndarr
     return xyz_to_linear_srgb(reflectance_to_xyz(wavelengths_nm, reflectance))
 
 
-@functools.cache
-def _display_processor(view: str):
-    import PyOpenColorIO as ocio
-
-    config = ocio.Config.CreateFromFile(OCIO_CONFIG)
-    transform = ocio.DisplayViewTransform(src=SCENE_LINEAR, display=DISPLAY, view=view)
-    return config.getProcessor(transform).getDefaultCPUProcessor()
-
-
-def display_encode(linear_rgb: np.ndarray, view: str = DEFAULT_VIEW) -> np.ndarray:
-    """Scene-linear Rec.709 → display-referred sRGB in [0, 1] through OpenColorIO."""
-    rgb = np.ascontiguousarray(np.asarray(linear_rgb, dtype=np.float32).reshape(-1, 3)).copy()
-    _display_processor(view).applyRGB(rgb)
-    return np.clip(rgb, 0.0, 1.0).reshape(np.shape(linear_rgb))
+def display_encode(linear_rgb: np.ndarray, view: str | None = None) -> np.ndarray:
+    """Scene-linear Rec.709 → display-referred values in [0, 1] through the current display
+    transform (:func:`pavonine.materials.display.current_display`), with ``view`` if given."""
+    return with_overrides(current_display(), view=view).encode(linear_rgb)
 
 
 def swatch(linear_rgb: np.ndarray) -> np.ndarray:
@@ -130,8 +117,7 @@ def xyz_to_lab(xyz: np.ndarray, white: np.ndarray | None = None) -> np.ndarray:
 
 def linear_srgb_to_xyz(linear_rgb: np.ndarray) -> np.ndarray:
     """Linear Rec.709 → XYZ (inverse of :func:`xyz_to_linear_srgb`)."""
-    _, _, _, matrix = _mitsuba_tables()
-    return np.asarray(linear_rgb, dtype=np.float64) @ np.linalg.inv(matrix).T
+    return np.asarray(linear_rgb, dtype=np.float64) @ np.linalg.inv(XYZ_TO_SRGB).T
 
 
 def delta_e76(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:

@@ -3,7 +3,8 @@
 Mitsuba's fast ``llvm_*`` variants need a shared libLLVM >= 16 (Dr.Jit fails on LLVM 15 with
 "Cannot select: fminimum"). :func:`find_libllvm` locates one and :func:`select_variant` points
 ``DRJIT_LIBLLVM_PATH`` at it *before* Dr.Jit loads, then picks ``llvm_ad_spectral``; without a
-usable LLVM it falls back to ``scalar_spectral`` with one warning.
+usable LLVM it falls back to ``scalar_spectral`` with one warning. :func:`set_threads` bounds the
+worker threads of Dr.Jit, OpenImageIO and the BLAS/OpenMP libraries (``--threads``).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import glob
 import os
 import re
+import sys
 import warnings
 from dataclasses import dataclass
 
@@ -44,6 +46,37 @@ class Backend:
 
 
 _selected: Backend | None = None
+_threads: int | None = None
+
+#: Read by OpenMP/BLAS libraries (NumPy, SciPy, pymeshlab) when they load, and by child processes.
+THREAD_ENV_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def set_threads(count: int | None) -> None:
+    """Use at most ``count`` worker threads (``None``: one per core, the libraries' default).
+
+    Applies at once to Dr.Jit and OpenImageIO when loaded (and to Dr.Jit when
+    :func:`select_variant` loads it later); sets :data:`THREAD_ENV_VARS` for libraries loaded after
+    this call and for worker processes.
+    """
+    global _threads
+    _threads = count
+    if count is None:
+        return
+    for name in THREAD_ENV_VARS:
+        os.environ[name] = str(count)
+    if "drjit" in sys.modules:
+        sys.modules["drjit"].set_thread_count(count)
+    try:
+        import OpenImageIO as oiio
+    except ImportError:
+        return
+    oiio.attribute("threads", count)
+
+
+def thread_count() -> int | None:
+    """The thread limit set by :func:`set_threads` (``None``: one per core)."""
+    return _threads
 
 
 def _llvm_major(path: str) -> int | None:
@@ -105,9 +138,12 @@ def select_variant(preferred: str | None = None) -> Backend:
     if lib is not None:
         os.environ["DRJIT_LIBLLVM_PATH"] = lib[0]
 
+    import drjit as dr
     import mitsuba as mi
 
     mi.set_variant(wanted)
+    if _threads is not None:
+        dr.set_thread_count(_threads)
     _selected = Backend(
         variant=wanted,
         libllvm=lib[0] if lib and wanted.startswith("llvm_") else None,

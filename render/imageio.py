@@ -4,10 +4,12 @@ EXR: 32-bit float RGB written with OpenImageIO, ``oiio:ColorSpace`` = ``lin_rec7
 (Linear Rec.709 (sRGB) in the OCIO built-in configs) and the standard EXR ``chromaticities``
 (Rec.709 primaries, D65 white), plus metadata as ``pavonine:*`` attributes (variance images too:
 their values are in the same scene-linear space, squared).
-PNG: the same pixels through OpenColorIO's built-in CG config, display ``sRGB - Display``
-(view ``Un-tone-mapped`` unless told otherwise), as :mod:`pavonine.materials.colour` does; the
-view is recorded as ``pavonine:view`` so that readers can invert the right transform.
-:func:`write_display_png` writes images that already are display-referred (heat-maps).
+PNG: the same pixels through a display transform (:mod:`pavonine.materials.display`: OCIO config,
+display, view, exposure; the current one unless told otherwise, by default the pinned built-in CG
+config, ``sRGB - Display``, ``Un-tone-mapped``), recorded as ``pavonine:ocio_config``,
+``pavonine:display``, ``pavonine:view`` and ``pavonine:exposure`` so that readers can invert the
+right transform. :func:`write_display_png` writes images that already are display-referred
+(heat-maps).
 Every file is written atomically (a temporary file renamed on success);
 :func:`write_render` writes an EXR and its PNG so that both appear or neither does.
 """
@@ -15,7 +17,6 @@ Every file is written atomically (a temporary file renamed on success);
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import os
 import re
@@ -26,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from pavonine.materials.colour import DEFAULT_VIEW, DISPLAY, OCIO_CONFIG, display_encode
+from pavonine.materials.display import DisplayTransform, current_display
 from pavonine.pipeline.errors import InputError, atomic_path
 
 EXR_COLORSPACE = "lin_rec709_scene"
@@ -53,21 +54,23 @@ def write_exr(
     _write(path, pixels, spec)
 
 
-def write_png(path: str | os.PathLike, rgb: np.ndarray, view: str = DEFAULT_VIEW) -> None:
-    """Write scene-linear ``rgb`` as an 8-bit sRGB PNG through the OCIO display/view transform."""
+def write_png(
+    path: str | os.PathLike, rgb: np.ndarray, display: DisplayTransform | None = None
+) -> None:
+    """Write scene-linear ``rgb`` as an 8-bit PNG through ``display`` (default: the current one)."""
     pixels = _check_rgb(rgb)
-    check_view(view)
-    display = display_encode(np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0), view=view)
-    write_display_png(path, display, view=view)
+    transform = display or current_display()
+    encoded = transform.encode(np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0))
+    write_display_png(path, encoded, transform)
 
 
 def write_display_png(
-    path: str | os.PathLike, display: np.ndarray, view: str | None = None
+    path: str | os.PathLike, display: np.ndarray, transform: DisplayTransform | None = None
 ) -> None:
     """Write a display-referred H×W×C image (C = 1, 3 or 4, values in [0, 1]) as an 8-bit PNG.
 
-    ``view``: the OCIO view the pixels were encoded with (recorded as ``pavonine:view``); ``None``
-    for images that are not renders (heat-maps).
+    ``transform``: the display transform the pixels were encoded with (recorded in the header);
+    ``None`` for images that are not renders (heat-maps).
     """
     import OpenImageIO as oiio
 
@@ -79,26 +82,22 @@ def write_display_png(
     encoded = np.round(np.clip(np.nan_to_num(pixels), 0.0, 1.0) * 255.0).astype(np.uint8)
     spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.UINT8)
     spec.attribute("oiio:ColorSpace", "srgb_rec709_display")
-    if view is None:
+    if transform is None:
         spec.attribute("Software", "pavonine")
     else:
-        spec.attribute("Software", f"pavonine (OCIO view {view!r})")
-        spec.attribute("pavonine:view", view)
+        spec.attribute("Software", f"pavonine (OCIO view {transform.view!r})")
+        for key, value in transform.attributes().items():
+            spec.attribute(key, value)
     _write(path, np.ascontiguousarray(encoded), spec)
 
 
-def display_views() -> list[str]:
-    """The OCIO views of the display PNGs are encoded for (``sRGB - Display``)."""
-    return list(_ocio_views())
-
-
-def check_view(view: str) -> str:
-    """``view`` if the OCIO config has it for the display, else a one-line :class:`InputError`."""
-    views = _ocio_views()
-    if view not in views:
-        known = ", ".join(repr(v) for v in views)
-        raise InputError("--view", f"unknown OCIO view {view!r} for {DISPLAY!r} (views: {known})")
-    return view
+def png_display(attributes: Mapping[str, Any]) -> DisplayTransform | None:
+    """The display transform a PNG written by :func:`write_png` records (``None`` if unknown)."""
+    recorded = DisplayTransform.from_attributes(attributes)
+    if recorded is not None:
+        return recorded
+    view = png_view(attributes)
+    return None if view is None else DisplayTransform(view=view)
 
 
 def png_view(attributes: Mapping[str, Any]) -> str | None:
@@ -139,7 +138,7 @@ def write_render(
     metadata: Mapping[str, Any] | None = None,
     *,
     png_path: str | os.PathLike | None = None,
-    view: str = DEFAULT_VIEW,
+    display: DisplayTransform | None = None,
 ) -> None:
     """Write a render's EXR and (optionally) its display PNG: both appear, or neither does."""
     with contextlib.ExitStack() as stack:
@@ -147,7 +146,7 @@ def write_render(
         png_tmp = stack.enter_context(atomic_path(png_path)) if png_path is not None else None
         write_exr(exr_tmp, rgb, metadata)
         if png_tmp is not None:
-            write_png(png_tmp, rgb, view=view)
+            write_png(png_tmp, rgb, display)
 
 
 def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
@@ -164,13 +163,6 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
     finally:
         image.close()
     return np.asarray(pixels), attributes
-
-
-@functools.cache
-def _ocio_views() -> tuple[str, ...]:
-    import PyOpenColorIO as ocio
-
-    return tuple(ocio.Config.CreateFromFile(OCIO_CONFIG).getViews(DISPLAY))
 
 
 def _check_rgb(rgb: np.ndarray) -> np.ndarray:

@@ -1,6 +1,47 @@
-"""Shared pytest fixtures."""
+"""Shared pytest fixtures, and skips for tests whose system libraries are missing."""
+
+import importlib.abc
+import importlib.util
+import os
+import subprocess
+import sys
 
 import pytest
+
+
+def _drjit_load_error() -> str | None:
+    """Why Dr.Jit (so Mitsuba) cannot load here, or None. Checked in a child process: importing
+    Dr.Jit here, before ``pavonine.backend`` has pointed it at a libLLVM, would be too early."""
+    if importlib.util.find_spec("drjit") is None:
+        return None  # not installed: tests use pytest.importorskip("mitsuba")
+    probe = "import drjit"
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    if result.returncode == 0:
+        return None
+    lines = [line for line in result.stderr.splitlines() if "Error" in line]
+    return lines[0].strip() if lines else result.stderr.strip()[-200:]
+
+
+class _Unloadable(importlib.abc.MetaPathFinder):
+    """Turns ``import mitsuba``/``import drjit`` into ModuleNotFoundError with the reason, so
+    ``pytest.importorskip("mitsuba")`` skips instead of crashing collection."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in ("drjit", "mitsuba"):
+            raise ModuleNotFoundError(self.reason, name=name)
+        return None
+
+
+DRJIT_ERROR = _drjit_load_error()
+if DRJIT_ERROR is not None:
+    DRJIT_REASON = (
+        f"Dr.Jit cannot load ({DRJIT_ERROR}; Debian: apt-get install libatomic1; "
+        ".ci/setup does it as root)"
+    )
+    sys.meta_path.insert(0, _Unloadable(DRJIT_REASON))
 
 
 @pytest.fixture
@@ -34,10 +75,66 @@ def scalar_centre(restore_variant):
     return render
 
 
+def missing_system_tools() -> dict[str, str]:
+    """Marker → why its tests cannot run here (a system library is missing)."""
+    from pavonine.backend import MIN_LLVM_MAJOR, find_libllvm
+
+    missing = {}
+    if DRJIT_ERROR is not None:
+        missing["render"] = missing["llvm"] = missing["mitsuba"] = DRJIT_REASON
+    elif os.environ.get("PAVONINE_VARIANT", "").startswith("scalar") or find_libllvm() is None:
+        missing["render"] = missing["llvm"] = (
+            f"needs a shared libLLVM >= {MIN_LLVM_MAJOR} for Mitsuba's llvm variants, the scalar "
+            "fallback is too slow for the suite (Debian: apt-get install libllvm19; .ci/setup "
+            "does it as root)"
+        )
+    try:
+        import pymeshlab
+
+        from pavonine.pipeline.cli.options import LOAD_CHECKS
+
+        LOAD_CHECKS["pymeshlab"](pymeshlab)
+    except ImportError as exc:
+        missing["convert"] = (
+            f"pymeshlab cannot load ({' '.join(str(exc).split())}; Debian: apt-get install "
+            "libgl1 libopengl0 libgomp1; .ci/setup does it as root)"
+        )
+    return missing
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``render``, ``llvm``, ``mitsuba`` or ``convert`` skip, saying what to install,
+    when the system library they need is missing."""
+    missing = missing_system_tools()
+    for item in items:
+        for marker, reason in missing.items():
+            if marker in item.keywords:
+                item.add_marker(pytest.mark.skip(reason=reason))
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """When Dr.Jit cannot load, a test that imports Mitsuba anyway is skipped with the reason,
+    not failed (the import raised ModuleNotFoundError through ``_Unloadable``)."""
+    outcome = yield
+    report = outcome.get_result()
+    error = call.excinfo.value if call.excinfo is not None else None
+    if (
+        DRJIT_ERROR is not None
+        and isinstance(error, ModuleNotFoundError)
+        and (error.name or "").split(".")[0] in ("drjit", "mitsuba")
+    ):
+        report.outcome = "skipped"
+        report.longrepr = (str(item.path), item.location[1] or 0, f"Skipped: {DRJIT_REASON}")
+
+
 @pytest.fixture(scope="session")
 def eye_asset(tmp_path_factory):
     """A converted eye feather shared by the portable-asset tests (256-px maps, 12k/4k/1k
     triangles, 256² baked textures; the shipped feathers' freyer2020 preset). Tests that change it work on a copy."""
+    reason = missing_system_tools().get("convert")
+    if reason:
+        pytest.skip(reason)
     from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
 

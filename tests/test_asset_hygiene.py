@@ -139,7 +139,7 @@ def test_shipped_scenes_are_assemblies_with_a_default_prim_and_validate_clean(sc
     assert default and Usd.ModelAPI(default).GetKind() == Kind.Tokens.assembly
     assert Usd.ModelAPI(default).IsModel()
     result = CliRunner().invoke(cli, ["validate", str(scene)])
-    assert result.exit_code == 0 and result.output == "", result.output
+    assert result.exit_code == 0 and result.output == "1 file, no findings\n", result.output
 
 
 @pytest.mark.parametrize("asset", SHIPPED, ids=lambda p: p.stem)
@@ -151,4 +151,4 @@ def test_shipped_feathers_are_converted_baked_and_clean(asset):
     assert material.GetPrim().GetCustomDataByKey("pavonine:bake")["resolution"] > 0
     assert (asset.parent / f"{asset.stem}.mtlx").is_file()
     result = CliRunner().invoke(cli, ["validate", str(asset)])
-    assert result.exit_code == 0 and result.output == "", result.output
+    assert result.exit_code == 0 and result.output == "1 file, no findings\n", result.output

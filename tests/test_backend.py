@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 from pavonine import backend
 
 
@@ -18,6 +20,7 @@ def test_found_llvm_is_new_enough():
         assert found[1] >= backend.MIN_LLVM_MAJOR
 
 
+@pytest.mark.mitsuba
 def test_fallback_to_scalar_warns_once():
     """With no usable LLVM, select_variant falls back to scalar_spectral with one warning."""
     code = (

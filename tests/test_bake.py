@@ -229,7 +229,7 @@ def test_pavonine_bake_rebakes_in_place(eye_asset, tmp_path):
     assert (asset / "textures" / "basecolor.png").read_bytes() != before
     assert sorted(p.name for p in asset.iterdir() if p.name.startswith(".")) == []  # no temp
     validate = CliRunner().invoke(cli, ["validate", str(asset / "eye_feather.usd")])
-    assert validate.exit_code == 0 and validate.output == "", validate.output
+    assert validate.exit_code == 0 and validate.output == "1 file, no findings\n", validate.output
 
 
 def test_changed_parameters_make_the_baked_textures_stale(eye_asset, tmp_path):

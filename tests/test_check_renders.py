@@ -24,6 +24,8 @@ from pavonine.pipeline.compare.baselines import (
 )
 from pavonine.pipeline.compare.methods import read_image
 
+pytestmark = pytest.mark.mitsuba  # the CLI checks that Mitsuba loads first
+
 
 # ------------------------------------------------------------ stand-in renderer (fast, no Mitsuba)
 def fake_render(stage, settings: CheckSettings, *, progress: bool = False) -> SceneRender:
@@ -285,3 +287,25 @@ def test_a_swapped_map_fails_stat(tmp_path: Path):
     swapped = _override(tmp_path, "eye_swapped_maps", swap_maps, base=mapped)
     check = check_stage(swapped, baseline)
     assert not check.results[0].passed, check.results[0].numbers
+
+
+def test_check_renders_junit_has_a_case_per_scene_failing_when_it_differs(fake_repo: Path):
+    """--junit, read back with junitparser (what CI test-report plug-ins are built on)."""
+    from junitparser import Failure, JUnitXml
+
+    assert (
+        invoke("baseline", "update", "--all", "--resolution", "64x64", *dirs(fake_repo)).exit_code
+        == 0
+    )
+    (fake_repo / "scenes" / "eye.usda").write_text(scene_text("gain=1.05"))
+    target = fake_repo / "renders.xml"
+    result = invoke("check-renders", *dirs(fake_repo), "--junit", str(target))
+    assert result.exit_code == 1, result.output
+    [suite] = list(JUnitXml.fromfile(str(target)))
+    assert suite.name == "pavonine check-renders"
+    assert (suite.tests, suite.failures, suite.errors) == (2, 1, 0)
+    cases = {case.name: case for case in suite}
+    assert cases["blue"].is_passed
+    failures = cases["eye"].result
+    assert failures and all(isinstance(f, Failure) for f in failures)
+    assert any(f.message.startswith("stat: differs") for f in failures)

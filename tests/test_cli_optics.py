@@ -29,7 +29,10 @@ def test_spectra_json_summary(runner, tmp_path):
         ["spectra", "--preset", "blue", "--observe", "10,40", "--json", "-", "-o", str(tmp_path)],
     )
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.output)
+    report = json.loads(result.stdout)
+    assert report["label"] == "blue" and report["incidence_deg"] == 0.0
+    assert report["files"]["png"] == str(tmp_path / "spectra_blue.png")
+    summary = report["spectra"]
     assert [s["observe_deg"] for s in summary] == [10.0, 40.0]
     assert set(summary[0]) == {"observe_deg", "peak_nm", "peak_reflectance", "fwhm_nm", "srgb"}
     assert summary[0]["peak_nm"] > summary[1]["peak_nm"]
@@ -56,11 +59,20 @@ def test_spectra_explicit_structure_and_class(runner, tmp_path):
         ],
     )
     assert explicit.exit_code == 0, explicit.output
-    assert abs(json.loads(explicit.output)[0]["peak_nm"] - 600) < 15
+    assert abs(json.loads(explicit.stdout)["spectra"][0]["peak_nm"] - 600) < 15
     by_class = runner.invoke(
         cli, ["spectra", "--class", "3", "--gradation", "1", "--json", "-", "-o", str(tmp_path)]
     )
     assert by_class.exit_code == 0, by_class.output
+
+
+def test_spectra_json_to_stdout_alone_writes_no_files(runner, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(cli, ["spectra", "--preset", "yellow", "--json", "-"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)  # stdout is the JSON report and nothing else
+    assert report["files"] == {} and len(report["spectra"]) == 8
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize(
@@ -89,7 +101,7 @@ def test_spectra_bad_input_is_one_line_exit_2_and_writes_nothing(runner, tmp_pat
 
 
 def test_figures(runner, tmp_path):
-    result = runner.invoke(cli, ["figures", str(tmp_path)])
+    result = runner.invoke(cli, ["figures", "-o", str(tmp_path)])
     assert result.exit_code == 0, result.output
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == [
@@ -117,12 +129,14 @@ def test_physical_comparison_degrades_without_grcwa(tmp_path, monkeypatch):
     assert (tmp_path / "cmp.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.mitsuba
 def test_doctor_reports_variant_and_versions(runner):
-    result = runner.invoke(cli, ["doctor", "--json"])
+    result = runner.invoke(cli, ["doctor", "--json", "-"])
     assert result.exit_code == 0, result.output
-    info = json.loads(result.output)
+    info = json.loads(result.stdout)
     assert info["variant"].endswith("spectral")
     assert info["packages"]["usd-core"] and info["packages"]["Mitsuba"]
+    assert info["extras"] == {"convert": True, "render": True, "farm": True}
     if info["variant"].startswith("llvm"):
         assert info["llvm_major"] >= 16
 
@@ -133,7 +147,9 @@ def test_spectra_json_file_is_written_with_the_plot(runner, tmp_path):
         cli, ["spectra", "--preset", "yellow", "--json", str(target), "-o", str(tmp_path)]
     )
     assert result.exit_code == 0, result.output
-    assert [s["observe_deg"] for s in json.loads(target.read_text())][:2] == [15.0, 25.0]
+    spectra = json.loads(target.read_text())["spectra"]
+    assert [s["observe_deg"] for s in spectra][:2] == [15.0, 25.0]
+    assert "peak (nm)" in result.stdout  # a JSON file leaves the table on stdout
 
 
 @pytest.mark.parametrize("command", ["spectra", "figures", "maps"])
@@ -142,8 +158,8 @@ def test_output_below_a_file_is_one_line_exit_2(runner, tmp_path, command):
     blocker.write_text("not a folder")
     args = {
         "spectra": ["spectra", "--preset", "blue", "-o", str(blocker / "out")],
-        "figures": ["figures", str(blocker / "out")],
-        "maps": ["maps", "blue", str(blocker / "out"), "--size", "32"],
+        "figures": ["figures", "-o", str(blocker / "out")],
+        "maps": ["maps", "blue", "-o", str(blocker / "out"), "--size", "32"],
     }[command]
     result = runner.invoke(cli, args)
     assert result.exit_code == 2, result.output
@@ -152,7 +168,7 @@ def test_output_below_a_file_is_one_line_exit_2(runner, tmp_path, command):
 
 
 def test_maps_rejects_a_negative_seed(runner, tmp_path):
-    result = runner.invoke(cli, ["maps", "eye", str(tmp_path / "m"), "--seed", "-1"])
+    result = runner.invoke(cli, ["maps", "eye", "-o", str(tmp_path / "m"), "--seed", "-1"])
     assert result.exit_code == 2 and "--seed" in result.output
     assert not (tmp_path / "m").exists()
 
@@ -171,7 +187,7 @@ def test_figures_in_the_physical_mode(runner, tmp_path, monkeypatch):
 
     monkeypatch.setattr(plots, "table1_swatches", spy)
     monkeypatch.setattr(plots, "physical_comparison", lambda path: path.write_bytes(b"stub"))
-    result = runner.invoke(cli, ["figures", str(tmp_path), "--interference", "physical"])
+    result = runner.invoke(cli, ["figures", "-o", str(tmp_path), "--interference", "physical"])
     assert result.exit_code == 0, result.output
     assert seen == ["physical"]
     assert (tmp_path / "fig5_blue.png").stat().st_size > 1000

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -143,17 +144,17 @@ def test_display_encoding_is_the_srgb_curve_and_inverts():
 
 
 def test_png_is_decoded_with_the_view_it_was_written_with(tmp_path):
+    from pavonine.materials.display import REFERENCE_DISPLAY
     from pavonine.render.imageio import write_png as write_render_png
 
-    aces = "ACES 2.0 - SDR 100 nits (Rec.709)"
+    aces = replace(REFERENCE_DISPLAY, view="ACES 2.0 - SDR 100 nits (Rec.709)")
     linear = smooth_image(16) * 0.8
-    write_render_png(tmp_path / "aces.png", linear, view=aces)
+    write_render_png(tmp_path / "aces.png", linear, aces)
     image = read_image(tmp_path / "aces.png")
-    assert image.view == aces
+    assert image.display == aces
     assert image.rgb == pytest.approx(linear, abs=0.03)  # back to scene-linear, 8-bit rounding
-    assert read_image(tmp_path / "aces.png", view="Un-tone-mapped").rgb != pytest.approx(
-        linear, abs=0.03
-    )
+    untonemapped = read_image(tmp_path / "aces.png", {"view": "Un-tone-mapped"})
+    assert untonemapped.rgb != pytest.approx(linear, abs=0.03)
     result = CliRunner().invoke(
         cli, ["compare", str(tmp_path / "aces.png"), str(tmp_path / "aces.png"), "--view", "Nope"]
     )
@@ -205,14 +206,16 @@ def test_cli_agree_exits_0_and_writes_heatmaps_and_json(images: Path):
     result = run(
         str(d / "same.exr"), str(d / "ref.exr"), "--method", "all",
         "--ref-variance", str(d / "ref_var.exr"), "--test-variance", str(d / "same_var.exr"),
-        "--heatmap-dir", str(out), "--json", str(d / "numbers.json"),
+        "-o", str(out), "--json", str(d / "numbers.json"),
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "agree" in result.output
     for method in ("stat", "flip"):
         heatmap = read_image(out / f"same.{method}-diff.png")
         assert heatmap.size == (SIZE, SIZE)
-    numbers = json.loads((d / "numbers.json").read_text())
+    report = json.loads((d / "numbers.json").read_text())
+    assert report["passed"] is True and report["test"] == str(d / "same.exr")
+    numbers = report["methods"]
     assert numbers["stat"]["passed"] is True and numbers["flip"]["passed"] is True
 
 

@@ -7,6 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+pytest.importorskip(
+    "pymeshlab",
+    reason="pymeshlab cannot load (Debian: apt-get install libgl1)",
+    exc_type=ImportError,
+)
+pytestmark = pytest.mark.convert
+
 from pavonine.pipeline.convert.atlas import (
     AtlasedMesh,
     build_atlas,

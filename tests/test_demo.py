@@ -6,13 +6,13 @@ from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
 
-pytestmark = pytest.mark.render
+pytestmark = [pytest.mark.render, pytest.mark.convert]
 
 
 def test_demo_paints_converts_and_renders(tmp_path):
     out = tmp_path / "demo"
     result = CliRunner().invoke(
-        cli, ["demo", str(out), "--size", "256", "--spp", "4", "--resolution", "48x72"]
+        cli, ["demo", "-o", str(out), "--size", "256", "--spp", "4", "--resolution", "48x72"]
     )
     assert result.exit_code == 0, result.output
     for name in (
@@ -40,5 +40,31 @@ def test_demo_paints_converts_and_renders(tmp_path):
 
 
 def test_demo_rejects_a_bad_resolution(tmp_path):
-    result = CliRunner().invoke(cli, ["demo", str(tmp_path / "d"), "--resolution", "wide"])
+    result = CliRunner().invoke(cli, ["demo", "-o", str(tmp_path / "d"), "--resolution", "wide"])
     assert result.exit_code == 2 and "--resolution" in result.output
+
+
+def test_demo_renders_small_on_the_scalar_fallback_and_says_so(tmp_path, monkeypatch):
+    """Without libLLVM the default demo would take hours: it renders 96x144 at 8 spp instead."""
+    from pavonine import backend
+    from pavonine.render import api
+
+    seen = {}
+
+    def fake_render(stage, *, spp, resolution, seed, progress):
+        seen.update(spp=spp, resolution=resolution)
+        raise SystemExit(0)  # stop here: the size was decided
+
+    monkeypatch.setattr(
+        backend,
+        "select_variant",
+        lambda *a: backend.Backend("scalar_spectral", None, None, "no usable libLLVM"),
+    )
+    monkeypatch.setattr(api, "render_stage", fake_render)
+    result = CliRunner().invoke(cli, ["demo", "-o", str(tmp_path / "d"), "--size", "64"])
+    assert result.exit_code == 0, result.output
+    assert seen == {"spp": 8, "resolution": (96, 144)}
+    assert "warning: no libLLVM" in result.stderr
+    seen.clear()
+    CliRunner().invoke(cli, ["demo", "-o", str(tmp_path / "e"), "--size", "64", "--spp", "2"])
+    assert seen == {"spp": 2, "resolution": (512, 768)}  # asked for: kept

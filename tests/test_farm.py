@@ -260,7 +260,7 @@ def test_a_frame_split_by_samples_passes_stat_against_one_render(shared_dask, tm
             str(tmp_path / f"{ref}.variance.exr"),
             "--method",
             "stat",
-            "--heatmap-dir",
+            "-o",
             str(tmp_path / "heat"),
         )
 
@@ -279,7 +279,8 @@ def test_a_frame_split_by_samples_passes_stat_against_one_render(shared_dask, tm
 
 def test_convert_on_the_cluster(shared_dask, tmp_path):
     maps = tmp_path / "m"
-    assert pavonine("maps", "blue", str(maps), "--size", "48", "--no-contact-sheet").returncode == 0
+    made = pavonine("maps", "blue", "-o", str(maps), "--size", "48", "--no-contact-sheet")
+    assert made.returncode == 0, made.stderr
     geometry = (
         "[geometry]\nlength_cm = 4.0\nrachis_radius_cm = 0.03\nrachis_tip_radius_cm = 0.01\n"
         "bend_cm = 0.3\ncup_cm = 0.2\ncalamus_cm = 0.5\ndisplacement_cm = 0.01\n"

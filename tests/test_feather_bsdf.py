@@ -5,6 +5,8 @@ import math
 import numpy as np
 import pytest
 
+pytest.importorskip("mitsuba")  # conftest says why when it cannot load
+pytestmark = pytest.mark.llvm  # vectorised calls: Mitsuba's llvm variant
 from pavonine.backend import select_variant
 from pavonine.materials import optics
 from pavonine.materials.brdf import direction
@@ -12,8 +14,8 @@ from pavonine.materials.parameters import preset
 from pavonine.render.feather_bsdf import PLUGIN_NAME, feather_bsdf_dict, register
 
 select_variant()
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
+import drjit as dr
+import mitsuba as mi
 
 register()
 TABLE1 = preset("paper-table1")

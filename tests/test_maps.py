@@ -138,7 +138,7 @@ def test_sample_bilinear_puts_v0_at_the_bottom_row():
 
 def test_maps_command_writes_six_maps_and_a_contact_sheet(tmp_path):
     out = tmp_path / "m"
-    result = CliRunner().invoke(cli, ["maps", "eye", str(out), "--size", "64", "--seed", "2"])
+    result = CliRunner().invoke(cli, ["maps", "eye", "-o", str(out), "--size", "64", "--seed", "2"])
     assert result.exit_code == 0, result.output
     for name in MAP_NAMES:
         assert read_map(out / f"{name}.png", name).shape == (64, 32)
@@ -147,6 +147,6 @@ def test_maps_command_writes_six_maps_and_a_contact_sheet(tmp_path):
 
 
 def test_maps_command_rejects_unknown_kind(tmp_path):
-    result = CliRunner().invoke(cli, ["maps", "ostrich", str(tmp_path / "m")])
+    result = CliRunner().invoke(cli, ["maps", "ostrich", "-o", str(tmp_path / "m")])
     assert result.exit_code == 2
     assert not (tmp_path / "m").exists()

@@ -158,6 +158,7 @@ def test_crescent_density_leans_towards_the_light():
     assert mean[0] == pytest.approx(0.0, abs=1e-6) and 0 < mean[1] < mean[2]
 
 
+@pytest.mark.llvm
 def test_crescent_density_is_beckmann_visible_normals_in_plane():
     """Eq. 6 vs an independent method: visible-normal sampling of the renderer's distribution."""
     from pavonine.backend import select_variant

@@ -44,7 +44,7 @@ def test_package_holds_every_layer_map_and_texture(package):
 
 def test_validate_reads_the_maps_inside_the_package(package):
     result = run("validate", package)
-    assert result.exit_code == 0 and result.output == "", result.output
+    assert result.exit_code == 0 and result.output == "1 file, no findings\n", result.output
 
 
 def _scene(tmp_path: Path, asset: Path) -> Path:
@@ -71,7 +71,7 @@ def test_a_scene_renders_the_package_like_the_unpacked_asset(package, eye_asset,
         "--ref-spp", "32", "--test-spp", "32", "--json", tmp_path / "stat.json",
     )  # fmt: skip
     assert compare.exit_code == 0, compare.output
-    stat = json.loads((tmp_path / "stat.json").read_text())["stat"]
+    stat = json.loads((tmp_path / "stat.json").read_text())["methods"]["stat"]
     assert stat["passed"] is True and stat["nonfinite_pixels"] == 0
 
 

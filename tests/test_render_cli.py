@@ -15,6 +15,8 @@ from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.imageio import read_exr
 
+pytestmark = pytest.mark.mitsuba  # the CLI checks that Mitsuba loads first
+
 DATA = Path(__file__).parent / "data" / "render"
 SCENE = Path(__file__).parents[1] / "assets" / "scenes" / "eye_feather_sun.usda"
 
@@ -202,7 +204,7 @@ def test_exr_and_png_are_written_together_or_not_at_all(tmp_path, monkeypatch):
     imageio.write_render(tmp_path / "ok.exr", rgb, {"spp": 1}, png_path=tmp_path / "ok.png")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.exr", "ok.png"]
 
-    def broken_png(path, rgb, view=imageio.DEFAULT_VIEW):
+    def broken_png(path, rgb, display=None):
         raise OSError(28, "No space left on device", str(path))
 
     monkeypatch.setattr(imageio, "write_png", broken_png)

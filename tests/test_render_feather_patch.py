@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+pytest.importorskip("mitsuba")  # conftest says why when it cannot load
 from pavonine.backend import select_variant
 from pavonine.materials import colour, optics
 from pavonine.materials.brdf import direction
@@ -14,7 +15,7 @@ from pavonine.render.feather_bsdf import feather_bsdf_dict, register
 pytestmark = pytest.mark.render
 
 select_variant()
-import mitsuba as mi  # noqa: E402
+import mitsuba as mi
 
 register()
 

@@ -45,7 +45,7 @@ def test_docs_example_validates_clean(tmp_path):
     path = tmp_path / "example.usda"
     path.write_text(block)
     code, out, err = run(str(path))
-    assert (code, out) == (0, ""), out + err
+    assert (code, out) == (0, "1 file, no findings\n"), out + err
     assert block == (DATA / "minimal_feather.usda").read_text()
 
 
@@ -63,8 +63,9 @@ def test_docs_example_validates_clean(tmp_path):
 def test_bad_assets_exit_1_naming_the_field(name, field, words):
     code, out, _err = run(str(DATA / name))
     assert code == 1
-    lines = out.splitlines()
+    *lines, summary = out.splitlines()
     assert all(LINE.match(line) for line in lines), out
+    assert re.fullmatch(r"1 file: [1-9]\d* errors?, \d+ warnings?", summary), summary
     hits = [m for m in map(LINE.match, lines) if m.group(1) == "ERROR" and m.group(3) == field]
     assert hits and any(words in m.group(4) for m in hits), out
 
@@ -76,7 +77,7 @@ def test_bad_assets_exit_1_naming_the_field(name, field, words):
 def test_unreadable_usda_exits_2_with_the_parser_message(name, parser_words):
     code, out, err = run(str(DATA / name))
     assert code == 2
-    assert out == ""
+    assert out == "1 file: 0 errors, 0 warnings, 1 unreadable\n"
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert lines[0].startswith(f"error: {DATA / name}: ") and parser_words in lines[0]
@@ -112,16 +113,16 @@ def authored_asset(
 def test_authored_asset_with_maps_is_clean_and_json(tmp_path):
     path, _stage = authored_asset(tmp_path)
     code, out, err = run(str(path))
-    assert (code, out) == (0, ""), out + err
-    code, out, _ = run("--json", str(path))
-    assert code == 0 and json.loads(out) == {"findings": [], "unreadable": []}
+    assert (code, out) == (0, "1 file, no findings\n"), out + err
+    code, out, _ = run("--json", "-", str(path))
+    assert code == 0 and json.loads(out) == {"files": 1, "findings": [], "unreadable": []}
 
 
 def test_paper_table1_warns_about_staggered_rods_per_class_and_axis(tmp_path):
     """Table 1's class 4 short axis (d = 0.11 um, a = 0.065 um) fails d >= sqrt(3)*a: a warning in
     the paper mode naming class and axis, an error once the material is switched to physical."""
     path, stage = authored_asset(tmp_path, "paper-table1")
-    code, out, _ = run("--json", str(path))
+    code, out, _ = run("--json", "-", str(path))
     findings = json.loads(out)["findings"]
     assert code == 0
     assert [(f["severity"], f["field"]) for f in findings] == [
@@ -130,7 +131,7 @@ def test_paper_table1_warns_about_staggered_rods_per_class_and_axis(tmp_path):
     assert "class 4 short axis" in findings[0]["message"]
     stage.GetPrimAtPath("/Feather").GetAttribute("pavonine:interference").Set("physical")
     stage.GetRootLayer().Save()
-    code, out, _ = run("--json", str(path))
+    code, out, _ = run("--json", "-", str(path))
     errors = [f for f in json.loads(out)["findings"] if f["severity"] == "ERROR"]
     assert code == 1 and "class[4].short" in errors[0]["message"], errors
 
@@ -139,7 +140,7 @@ def test_drifted_derived_shader_is_an_error(tmp_path):
     path, stage = authored_asset(tmp_path)
     stage.GetPrimAtPath("/Feather").GetAttribute("pavonine:crescentSigma").Set(30.0)
     stage.GetRootLayer().Save()
-    code, out, _ = run("--json", str(path))
+    code, out, _ = run("--json", "-", str(path))
     assert code == 1
     fields = {
         (f["path"], f["field"]) for f in json.loads(out)["findings"] if f["severity"] == "ERROR"
@@ -171,6 +172,28 @@ def test_several_files_prefix_lines_and_worst_exit_wins(tmp_path):
     assert code == 1 and out.startswith(f"{DATA / 'negative_radius.usda'}: ERROR /Feather")
     code, _, _ = run(str(DATA / "negative_radius.usda"), str(DATA / "truncated.usda"))
     assert code == 2
+
+
+def test_junit_report_has_a_case_per_file_failing_on_errors(tmp_path):
+    """--junit: read back with junitparser, the parser CI plug-ins are built on."""
+    from junitparser import Error, Failure, JUnitXml
+
+    good = tmp_path / "good.usda"
+    shutil.copy(DATA / "minimal_feather.usda", good)
+    files = [str(good), str(DATA / "negative_radius.usda"), str(DATA / "truncated.usda")]
+    code, out, _ = run("--junit", str(tmp_path / "validate.xml"), *files)
+    assert code == 2 and out.endswith("3 files: 1 error, 0 warnings, 1 unreadable\n")
+    suites = list(JUnitXml.fromfile(str(tmp_path / "validate.xml")))
+    assert len(suites) == 1 and suites[0].name == "pavonine validate"
+    suite = suites[0]
+    assert (suite.tests, suite.failures, suite.errors) == (3, 1, 1)
+    cases = {case.name: case for case in suite}
+    assert set(cases) == set(files)
+    assert cases[str(good)].is_passed
+    [failure] = cases[files[1]].result
+    assert isinstance(failure, Failure) and "pavonine:long:rodRadius" in failure.message
+    [error] = cases[files[2]].result
+    assert isinstance(error, Error) and "Expected }" in error.message
 
 
 def test_validators_are_registered_through_usd():

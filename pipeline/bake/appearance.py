@@ -105,7 +105,11 @@ def structure(
     at :data:`WAVELENGTHS_NM`, through the renderer's JIT path or the NumPy model."""
     from pavonine.backend import select_variant
 
-    if select_variant().variant.startswith("llvm_"):
+    try:
+        variant = select_variant().variant
+    except ImportError:  # no Mitsuba: `pip install pavonine[convert]` without [render]
+        variant = None
+    if variant is not None and variant.startswith("llvm_"):
         return _structure_jit(params, k, t, wi, wo)
     return _structure_numpy(params, k, t, wi, wo)
 

@@ -1,16 +1,17 @@
 """The ``pavonine`` command line: a click group whose subcommands load lazily.
 
 Each subcommand lives in its own module (``pavonine.pipeline.cli.*``); importing them lazily keeps
-``pavonine --help`` fast and keeps Mitsuba/USD out of commands that do not need them.
+``pavonine --help`` fast and keeps Mitsuba/USD out of commands that do not need them. The shared
+options and conventions are in :mod:`pavonine.pipeline.cli.options`, the group (global ``-v/-q``,
+one-line errors) in :mod:`pavonine.pipeline.cli.group`.
 """
 
 from __future__ import annotations
 
-import importlib
-
 import click
 
 from pavonine import __version__
+from pavonine.pipeline.cli.group import PavonineGroup
 
 # command name -> "module:attribute"; one line per command.
 COMMANDS: dict[str, str] = {
@@ -33,24 +34,18 @@ COMMANDS: dict[str, str] = {
 }
 
 
-class LazyGroup(click.Group):
-    """A click group that imports a subcommand only when it is invoked or listed in help."""
-
-    def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(COMMANDS)
-
-    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        target = COMMANDS.get(cmd_name)
-        if target is None:
-            return None
-        module_name, attr = target.split(":")
-        return getattr(importlib.import_module(module_name), attr)
-
-
-@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(
+    "pavonine",
+    cls=PavonineGroup,
+    lazy_commands=COMMANDS,
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
 @click.version_option(__version__, prog_name="pavonine")
 def cli() -> None:
-    """Pavonine: peacock-feather structural colour, from optics to USD assets to spectral renders."""
+    """Pavonine: peacock-feather structural colour, from optics to USD assets to spectral renders.
+
+    Shell completion: eval "$(_PAVONINE_COMPLETE=bash_source pavonine)" (zsh_source, fish_source).
+    """
 
 
 def main(argv: list[str] | None = None) -> None:

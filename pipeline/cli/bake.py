@@ -6,8 +6,43 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.cli.jsonout import json_option, say, write_json
+from pavonine.pipeline.cli.options import (
+    emit_json,
+    json_option,
+    progress_bar,
+    requires,
+    say,
+)
 from pavonine.pipeline.errors import one_line_errors
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["asset", "resolution", "materials"],
+    "properties": {
+        "asset": {"type": "string", "description": "root layer of the asset baked"},
+        "resolution": {"type": "integer", "description": "texels along each side"},
+        "materials": {
+            "type": "array",
+            "description": "one entry per PavonineFeatherAPI material",
+            "items": {
+                "type": "object",
+                "required": ["material", "portable", "meshes", "layer", "textures", "mtlx"],
+                "properties": {
+                    "material": {"type": "string", "description": "the material's prim path"},
+                    "portable": {"type": "string", "description": "its portable (OpenPBR) twin"},
+                    "meshes": {"type": "array", "items": {"type": "string"}},
+                    "layer": {"type": "string", "description": "the material layer rewritten"},
+                    "textures": {
+                        "type": "object",
+                        "description": "texture name → file written",
+                        "additionalProperties": {"type": "string"},
+                    },
+                    "mtlx": {"type": "string", "description": "the MaterialX document written"},
+                },
+            },
+        },
+    },
+}
 
 
 @click.command("bake")
@@ -19,10 +54,10 @@ from pavonine.pipeline.errors import one_line_errors
     type=click.IntRange(16, 8192),
     help="Texels along each side of the baked textures.",
 )
-@json_option
-@click.option("-q", "--quiet", is_flag=True, help="No progress on stderr.")
+@json_option(JSON_SCHEMA)
+@requires("pymeshlab", "MaterialX")
 @one_line_errors
-def bake(asset: Path, resolution: int, json_target: str | None, quiet: bool) -> None:
+def bake(asset: Path, resolution: int, json_target: str | None) -> None:
     """Bake ASSET's feather materials into textures over the st atlas.
 
     ASSET is a feather asset's root layer (or its folder). For every PavonineFeatherAPI material:
@@ -32,20 +67,15 @@ def bake(asset: Path, resolution: int, json_target: str | None, quiet: bool) -> 
     networks are rewritten, with a portable OpenPBR twin bound for the preview purpose.
     pavonine convert does the same for new assets. Reference: docs/pipeline.md, "Baking".
     """
-    from rich.console import Console
-
     from pavonine.pipeline.bake.asset import bake_asset
 
-    console = Console(stderr=True, quiet=quiet)
-    with console.status("baking") as status:
+    with progress_bar() as progress:
+        task = progress.add_task("baking", total=None)
 
         def report(material: str) -> None:
-            status.update(f"baking {material}")
+            progress.update(task, description=f"baking {material}")
 
         result = bake_asset(asset, resolution, report)
     for entry in result.materials:
-        say(
-            f"baked   {entry['material']}: {resolution}x{resolution} textures, {entry['mtlx']}",
-            json_target,
-        )
-    write_json(result.as_dict(), json_target)
+        say(f"baked   {entry['material']}: {resolution}x{resolution} textures, {entry['mtlx']}")
+    emit_json(json_target, result.as_dict())

@@ -3,10 +3,20 @@
 from __future__ import annotations
 
 import shlex
+import sys
 from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    emit_json,
+    json_option,
+    progress_bar,
+    requires,
+    say,
+    stdout_console,
+    threads_option,
+)
 from pavonine.pipeline.compare.baselines import (
     BASELINE_SETTINGS,
     BASELINES_DIR,
@@ -23,15 +33,67 @@ from pavonine.pipeline.compare.baselines import (
     update_baseline,
 )
 from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.shipped import is_packaged
+
+LIST_SCHEMA = {
+    "type": "object",
+    "required": ["scenes_dir", "baselines_dir", "baselines"],
+    "properties": {
+        "scenes_dir": {"type": "string"},
+        "baselines_dir": {"type": "string"},
+        "baselines": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["scene", "stage", "baseline"],
+                "properties": {
+                    "scene": {"type": "string"},
+                    "stage": {"type": "string", "description": "the scene's stage file"},
+                    "baseline": {
+                        "type": ["string", "null"],
+                        "description": "its baseline folder (null: missing, exit 1)",
+                    },
+                    "spp": {"type": ["integer", "null"], "description": "baseline samples/pixel"},
+                    "check_spp": {"type": "integer", "description": "CI samples per pixel"},
+                    "resolution": {"type": "array", "items": {"type": "integer"}},
+                    "created": {"type": ["string", "null"]},
+                    "inputs_changed": {
+                        "type": "boolean",
+                        "description": "the stage or a file it uses changed since the baseline",
+                    },
+                },
+            },
+        },
+    },
+}
+UPDATE_SCHEMA = {
+    "type": "object",
+    "required": ["updated"],
+    "properties": {
+        "updated": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "baseline folders written",
+        }
+    },
+}
 
 
 def store_options(command):
     """``--scenes-dir`` and ``--baselines-dir``: where shipped scenes and their baselines live."""
     directory = click.Path(file_okay=False, path_type=Path)
     command = click.option(
-        "--baselines-dir", type=directory, default=BASELINES_DIR, help="Baseline folders."
+        "--baselines-dir",
+        type=directory,
+        default=BASELINES_DIR,
+        help="Baseline folders [default: the shipped ones].",
     )(command)
-    return click.option("--scenes-dir", type=directory, default=SCENES_DIR, help="Scenes.")(command)
+    return click.option(
+        "--scenes-dir",
+        type=directory,
+        default=SCENES_DIR,
+        help="Scenes [default: the shipped ones].",
+    )(command)
 
 
 @click.group("baseline")
@@ -66,6 +128,9 @@ def baseline() -> None:
     help="Seed CI renders with (must differ from --seed).",
 )
 @store_options
+@threads_option
+@json_option(UPDATE_SCHEMA)
+@requires("mitsuba", "drjit", "flip_evaluator")
 @one_line_errors
 def update(
     scenes: tuple[str, ...],
@@ -77,11 +142,20 @@ def update(
     check_seed: int,
     scenes_dir: Path,
     baselines_dir: Path,
+    json_target: str | None,
 ) -> None:
     """Re-render the baselines of SCENES (names like eye_feather_sun, or stage paths)."""
-    from rich.progress import Progress
+    from click.core import ParameterSource
 
     from pavonine.render.settings import parse_resolution
+
+    ctx = click.get_current_context()
+    if is_packaged() and ctx.get_parameter_source("baselines_dir") == ParameterSource.DEFAULT:
+        raise InputError(
+            "--baselines-dir",
+            f"the shipped baselines ({baselines_dir}) belong to the installed package; "
+            "re-approve them in a source checkout, or name another folder",
+        )
 
     if not scenes and not all_scenes:
         raise InputError("baseline update", "name at least one SCENE, or pass --all")
@@ -103,7 +177,8 @@ def update(
             *("--check-spp", str(check_spp), "--check-seed", str(check_seed)),
         ]
     )
-    with Progress(transient=True) as progress:
+    updated = []
+    with progress_bar() as progress:
         task = progress.add_task("baselines", total=len(stages))
         for stage in stages:
             progress.update(task, description=f"rendering {scene_name(stage)}")
@@ -115,37 +190,71 @@ def update(
                 command=command,
             )
             progress.advance(task)
-            progress.console.print(f"updated {made.directory}")
+            updated.append(str(made.directory))
+            say(f"updated {made.directory}")
+    emit_json(json_target, {"updated": updated})
 
 
 @baseline.command("list")
 @store_options
+@json_option(LIST_SCHEMA)
 @one_line_errors
-def list_baselines(scenes_dir: Path, baselines_dir: Path) -> None:
-    """Show each shipped scene and the baseline it is checked against."""
-    from rich.console import Console
+def list_baselines(scenes_dir: Path, baselines_dir: Path, json_target: str | None) -> None:
+    """Show each shipped scene and the baseline it is checked against.
+
+    Exit 0 when every scene has a baseline, 1 when one is missing, 2 when there is no scene or
+    no baseline at all.
+    """
     from rich.table import Table
 
     from pavonine.pipeline.compare.baselines import stage_sha256
+
+    stages = shipped_scenes(scenes_dir)
+    if not stages:
+        raise InputError(str(scenes_dir), "no scenes (*.usda naming their render settings) found")
+    rows = []
+    for stage in stages:
+        directory = baselines_dir / scene_name(stage)
+        row = {"scene": scene_name(stage), "stage": relative_to_repo(stage), "baseline": None}
+        if (directory / MEAN_FILE).is_file():
+            made = load_baseline(directory)
+            info = made.info
+            row.update(
+                baseline=relative_to_repo(directory),
+                spp=info.get("baseline", {}).get("spp"),
+                check_spp=made.check_settings.spp,
+                resolution=list(made.mean.size),
+                created=info.get("created"),
+                inputs_changed=info.get("stage_sha256") not in (None, stage_sha256(stage)),
+            )
+        rows.append(row)
+    if all(row["baseline"] is None for row in rows):
+        raise InputError(str(baselines_dir), f"no baselines for the {len(rows)} scene(s) found")
 
     table = Table(title=f"baselines in {relative_to_repo(baselines_dir)}")
     table.add_column("scene", no_wrap=True)
     for column in ("spp", "check spp", "size", "made", "inputs since"):
         table.add_column(column)
-    for stage in shipped_scenes(scenes_dir):
-        directory = baselines_dir / scene_name(stage)
-        if not (directory / MEAN_FILE).is_file():
-            table.add_row(scene_name(stage), "[red]missing[/]", "", "", "", "")
+    for row in rows:
+        if row["baseline"] is None:
+            table.add_row(row["scene"], "[red]missing[/]", "", "", "", "")
             continue
-        made = load_baseline(directory)
-        info = made.info
-        changed = info.get("stage_sha256") not in (None, stage_sha256(stage))
         table.add_row(
-            scene_name(stage),
-            str(info.get("baseline", {}).get("spp", "?")),
-            str(made.check_settings.spp),
-            "x".join(map(str, made.mean.size)),
-            str(info.get("created", "?"))[:10],
-            "[yellow]changed[/]" if changed else "unchanged",
+            row["scene"],
+            str(row["spp"] if row["spp"] is not None else "?"),
+            str(row["check_spp"]),
+            "x".join(map(str, row["resolution"])),
+            str(row["created"] or "?")[:10],
+            "[yellow]changed[/]" if row["inputs_changed"] else "unchanged",
         )
-    Console().print(table)
+    stdout_console().print(table)
+    emit_json(
+        json_target,
+        {
+            "scenes_dir": str(scenes_dir),
+            "baselines_dir": str(baselines_dir),
+            "baselines": rows,
+        },
+    )
+    if any(row["baseline"] is None for row in rows):
+        sys.exit(1)

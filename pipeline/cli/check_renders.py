@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
-import json
+import time
 from pathlib import Path
 
 import click
 
 from pavonine.pipeline.cli.baseline import store_options
+from pavonine.pipeline.cli.options import (
+    display_options,
+    emit_json,
+    json_option,
+    junit_option,
+    progress_bar,
+    requires,
+    say,
+    threads_option,
+)
 from pavonine.pipeline.compare.baselines import (
     BASELINES_DIR,
     SceneCheck,
@@ -18,7 +28,42 @@ from pavonine.pipeline.compare.baselines import (
     shipped_scenes,
 )
 from pavonine.pipeline.compare.methods import METHODS
-from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
+from pavonine.pipeline.errors import InputError, one_line_errors
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["passed", "scenes"],
+    "properties": {
+        "passed": {"type": "boolean", "description": "every scene matches (exit 0)"},
+        "report": {"type": ["string", "null"], "description": "HTML report, if written"},
+        "scenes": {
+            "type": "object",
+            "description": "scene name → its check",
+            "additionalProperties": {
+                "type": "object",
+                "required": ["passed", "check", "seconds", "methods", "notes"],
+                "properties": {
+                    "passed": {"type": "boolean"},
+                    "check": {
+                        "type": "object",
+                        "description": "resolution, spp and seed of the check render",
+                    },
+                    "seconds": {"type": "number", "description": "render and comparison time"},
+                    "methods": {
+                        "type": "object",
+                        "description": "method (stat, flip) → passed and its statistics",
+                        "additionalProperties": {
+                            "type": "object",
+                            "required": ["passed"],
+                            "properties": {"passed": {"type": "boolean"}},
+                        },
+                    },
+                    "notes": {"type": "array", "items": {"type": "string"}},
+                },
+            },
+        },
+    },
+}
 
 
 def run_checks(
@@ -27,27 +72,27 @@ def run_checks(
     baselines_dir: Path = BASELINES_DIR,
     methods: tuple[str, ...] = METHODS,
     seed: int | None = None,
-) -> list[SceneCheck]:
-    """Render and compare each stage with its baseline, showing a progress bar."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+) -> list[tuple[SceneCheck, float]]:
+    """Render and compare each stage with its baseline (progress on stderr); checks and seconds."""
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     baselines = [baseline_for(stage, baselines_dir) for stage in stages]
-    checks: list[SceneCheck] = []
+    checks: list[tuple[SceneCheck, float]] = []
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
-    with Progress(*columns, transient=True) as progress:
+    with progress_bar(*columns) as progress:
         task = progress.add_task("render checks", total=len(stages))
         for stage, baseline in zip(stages, baselines, strict=True):
             progress.update(task, description=f"rendering {scene_name(stage)}")
+            start = time.perf_counter()
             check = check_stage(stage, baseline, seed=seed, methods=methods)
-            checks.append(check)
+            checks.append((check, time.perf_counter() - start))
             progress.advance(task)
-            verdict = "[green]pass[/]" if check.passed else "[bold red]FAIL[/]"
             detail = ", ".join(
                 f"{r.method} {'pass' if r.passed else 'FAIL'}" for r in check.results
             )
-            progress.console.print(f"{check.scene}: {verdict} ({detail})")
+            say(f"{check.scene}: {'pass' if check.passed else 'FAIL'} ({detail})")
             for note in check.notes:
-                progress.console.print(f"  [yellow]note:[/] {note}")
+                say(f"  note: {note}")
     return checks
 
 
@@ -99,52 +144,80 @@ def report_entries(checks: list[SceneCheck]):
     help="Which comparisons must pass.",
 )
 @click.option("--seed", type=int, help="Override the check seed recorded with each baseline.")
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="Write the numbers.",
-)
 @store_options
+@json_option(JSON_SCHEMA)
+@junit_option
+@display_options
+@threads_option
+@requires("mitsuba", "drjit", "flip_evaluator")
 @one_line_errors
 def check_renders(
     scenes: tuple[str, ...],
     report: Path | None,
     method: str,
     seed: int | None,
-    json_path: Path | None,
     scenes_dir: Path,
     baselines_dir: Path,
+    json_target: str | None,
+    junit: Path | None,
+    display,
 ) -> None:
     """Render SCENES (default: every shipped scene) and compare each with its baseline.
 
     Exit 0 when all agree, 1 when any differs, 2 on bad input (e.g. a scene without a baseline).
+    The comparisons do not depend on the display options; the report's images do. --junit
+    writes one test case per scene, failing when it differs.
     """
     stages = [resolve_stage(s, scenes_dir) for s in scenes] or shipped_scenes(scenes_dir)
     if not stages:
         raise InputError(str(scenes_dir), "no shipped scenes (*.usda) to check")
     methods = METHODS if method == "all" else (method,)
-    checks = run_checks(stages, baselines_dir=baselines_dir, methods=methods, seed=seed)
+    timed = run_checks(stages, baselines_dir=baselines_dir, methods=methods, seed=seed)
+    checks = [check for check, _ in timed]
+    page = None
     if report is not None:
         from pavonine.pipeline.compare.report import write_report
 
         page = write_report(report, report_entries(checks))
-        click.echo(f"report: {page}")
-    if json_path is not None:
-        payload = {
-            c.scene: {
-                "passed": c.passed,
-                "check": c.settings.to_json(),
-                **{r.method: {"passed": r.passed, **r.numbers} for r in c.results},
-            }
-            for c in checks
-        }
-        with atomic_path(json_path) as tmp:
-            tmp.write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+        say(f"report: {page}")
     failed = [c.scene for c in checks if not c.passed]
+    emit_json(
+        json_target,
+        {
+            "passed": not failed,
+            "report": None if page is None else str(page),
+            "scenes": {
+                c.scene: {
+                    "passed": c.passed,
+                    "check": c.settings.to_json(),
+                    "seconds": round(seconds, 3),
+                    "methods": {r.method: {"passed": r.passed, **r.numbers} for r in c.results},
+                    "notes": list(c.notes),
+                }
+                for c, seconds in timed
+            },
+        },
+    )
+    if junit is not None:
+        _write_junit(junit, timed)
     if failed:
-        click.echo(
-            f"{len(failed)} of {len(checks)} scene(s) differ from baseline: {', '.join(failed)}"
-        )
+        say(f"{len(failed)} of {len(checks)} scene(s) differ from baseline: {', '.join(failed)}")
         raise SystemExit(1)
-    click.echo(f"{len(checks)} scene(s) match their baselines")
+    say(f"{len(checks)} scene(s) match their baselines")
+
+
+def _write_junit(target: Path, timed: list[tuple[SceneCheck, float]]) -> None:
+    """One test case per scene; each failing method is a failure with its statistics."""
+    from pavonine.pipeline.cli.junit import Case, Problem, write_junit
+
+    cases = []
+    for check, seconds in timed:
+        case = Case("pavonine.check-renders", check.scene, seconds, output="\n".join(check.notes))
+        for result in check.results:
+            if not result.passed:
+                numbers = ", ".join(f"{k} {v}" for k, v in result.numbers.items())
+                case.problems.append(
+                    Problem(f"{result.method}: differs from the baseline", numbers)
+                )
+        cases.append(case)
+    write_junit(target, "pavonine check-renders", cases)

@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    display_options,
+    display_overrides,
+    emit_json,
+    json_option,
+    output_option,
+    say,
+    stdout_console,
+)
 from pavonine.pipeline.compare.methods import (
     FLIP_THRESHOLD,
     METHODS,
@@ -20,17 +28,42 @@ from pavonine.pipeline.compare.methods import (
     read_image,
     read_variance,
 )
-from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
+from pavonine.pipeline.errors import InputError, one_line_errors
 
 EXIT_AGREE, EXIT_DIFFER = 0, 1
+
+_RESULT = {
+    "type": "object",
+    "required": ["passed", "heatmap"],
+    "properties": {
+        "passed": {"type": "boolean"},
+        "heatmap": {"type": "string", "description": "heat-map PNG written"},
+    },
+    "additionalProperties": True,
+    "description": "the method's statistics (docs/compare.md) besides passed and heatmap",
+}
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["test", "reference", "passed", "methods"],
+    "properties": {
+        "test": {"type": "string"},
+        "reference": {"type": "string"},
+        "passed": {"type": "boolean", "description": "every method agrees (exit 0)"},
+        "methods": {
+            "type": "object",
+            "description": "method name (stat, flip) → its result",
+            "additionalProperties": _RESULT,
+        },
+        "report": {"type": ["string", "null"], "description": "HTML report, if written"},
+    },
+}
 
 
 def print_results(results: list[ComparisonResult], title: str) -> None:
     """Print each method's verdict and numbers as a small table."""
-    from rich.console import Console
     from rich.table import Table
 
-    console = Console(highlight=False)
+    console = stdout_console()
     for result in results:
         verdict = "[green]agree[/]" if result.passed else "[bold red]DIFFER[/]"
         table = Table(title=f"{title} — {result.method}: {verdict}", title_justify="left")
@@ -68,13 +101,16 @@ def print_results(results: list[ComparisonResult], title: str) -> None:
     help="Samples per pixel of TEST: without --test-variance, TEST's variance is REF's x "
     "ref-spp/test-spp (a baseline folder supplies both, its check spp for TEST).",
 )
-@click.option(
-    "--heatmap-dir",
-    type=click.Path(file_okay=False, path_type=Path),
-    help="Where to write <TEST stem>.<method>-diff.png [default: beside TEST].",
+@output_option(
+    folder=True,
+    help="Folder for the heat-maps <TEST stem>.<method>-diff.png [default: beside TEST].",
 )
-@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the numbers.")
-@click.option("--report", type=click.Path(file_okay=False, path_type=Path), help="HTML report dir.")
+@json_option(JSON_SCHEMA)
+@click.option(
+    "--report",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Also write a static HTML report into this folder.",
+)
 @click.option(
     "--significance",
     type=float,
@@ -95,12 +131,7 @@ def print_results(results: list[ComparisonResult], title: str) -> None:
     help=f"Mean FLIP above which images differ [default: a baseline folder's calibrated "
     f"threshold, else {FLIP_THRESHOLD}].",
 )
-@click.option(
-    "--view",
-    default=None,
-    help="OCIO view PNG inputs were encoded with [default: the view recorded in the PNG, "
-    "else Un-tone-mapped].",
-)
+@display_options
 @one_line_errors
 def compare(
     test: Path,
@@ -110,20 +141,23 @@ def compare(
     test_variance: Path | None,
     ref_spp: int | None,
     test_spp: int | None,
-    heatmap_dir: Path | None,
-    json_path: Path | None,
+    output: Path | None,
+    json_target: str | None,
     report: Path | None,
     significance: float,
     pass_ratio: float,
     flip_threshold: float | None,
-    view: str | None,
+    display,
 ) -> None:
     """Compare TEST with REF (EXR or PNG; REF may be a baseline folder).
 
-    Exit 0 when they agree, 1 when they differ, 2 on bad input. Writes a heat-map PNG per method.
+    A PNG is decoded with the display transform it records (written by pavonine), else with
+    the current one; --ocio-config/--display/--view/--exposure given here override what a PNG
+    records. Exit 0 when they agree, 1 when they differ, 2 on bad input. Writes a heat-map PNG
+    per method.
     """
     from pavonine.pipeline.compare.methods import compare_arrays
-    from pavonine.render.imageio import check_view, write_display_png
+    from pavonine.render.imageio import write_display_png
 
     if not 0 < significance < 1:
         raise InputError("--significance", f"must be in (0, 1), got {significance}")
@@ -131,8 +165,7 @@ def compare(
         raise InputError("--pass-ratio", f"must be in (0, 1], got {pass_ratio}")
     if flip_threshold is not None and flip_threshold <= 0:
         raise InputError("--flip-threshold", f"must be positive, got {flip_threshold}")
-    if view is not None:
-        check_view(view)
+    overrides = display_overrides()
 
     if ref.is_dir():
         from pavonine.pipeline.compare.baselines import load_baseline, options_for
@@ -146,9 +179,9 @@ def compare(
         test_spp = test_spp or baseline.check_settings.spp
         flip_threshold = flip_threshold or options_for(baseline).flip_threshold
     else:
-        ref_image = read_image(ref, view)
+        ref_image = read_image(ref, overrides)
         ref_var = read_variance(ref_variance, ref_image.size) if ref_variance else None
-    test_image = read_image(test, view)
+    test_image = read_image(test, overrides)
     check_same_shape(test_image, ref_image)
     test_image, ref_image = match_display_range(test_image, ref_image)
     test_var = read_variance(test_variance, test_image.size) if test_variance else None
@@ -181,21 +214,29 @@ def compare(
     for result in results:
         if result.method == "stat":
             result.numbers["variance"] = noise
-    out_dir = heatmap_dir if heatmap_dir is not None else test.parent
+    out_dir = output if output is not None else test.parent
     for result in results:
         heatmap = out_dir / f"{test.stem}.{result.method}-diff.png"
         write_display_png(heatmap, result.heatmap)
         result.numbers["heatmap"] = str(heatmap)
     print_results(results, f"{test} vs {ref}")
-    if json_path is not None:
-        payload = {r.method: {"passed": r.passed, **r.numbers} for r in results}
-        with atomic_path(json_path) as tmp:
-            tmp.write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+    page = None
     if report is not None:
         from pavonine.pipeline.compare.report import SceneEntry, write_report
 
         entry = SceneEntry(test.stem, test_image.rgb, ref_image.rgb, results)
         entry.metadata = {"test": str(test), "reference": str(ref)}
         page = write_report(report, [entry], title=f"pavonine compare: {test.name}")
-        click.echo(f"report: {page}")
-    raise SystemExit(EXIT_AGREE if all(r.passed for r in results) else EXIT_DIFFER)
+        say(f"report: {page}")
+    passed = all(r.passed for r in results)
+    emit_json(
+        json_target,
+        {
+            "test": str(test),
+            "reference": str(ref),
+            "passed": passed,
+            "methods": {r.method: {"passed": r.passed, **r.numbers} for r in results},
+            "report": None if page is None else str(page),
+        },
+    )
+    raise SystemExit(EXIT_AGREE if passed else EXIT_DIFFER)

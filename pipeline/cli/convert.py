@@ -7,20 +7,62 @@ from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    emit_json,
+    json_option,
+    output_option,
+    progress_bar,
+    requires,
+    say,
+)
 from pavonine.pipeline.errors import EXIT_BAD_INPUT, one_line_errors
 
 EXIT_INTERNAL = 1
 
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["converted", "failed"],
+    "properties": {
+        "converted": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["recipe", "asset", "triangles", "seconds"],
+                "properties": {
+                    "recipe": {"type": "string"},
+                    "asset": {"type": "string", "description": "root layer of the asset written"},
+                    "triangles": {
+                        "type": "object",
+                        "description": "triangles per LOD (high, medium, low)",
+                        "additionalProperties": {"type": "integer"},
+                    },
+                    "seconds": {"type": "number", "description": "wall time of the conversion"},
+                },
+            },
+        },
+        "failed": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["recipe", "error", "bad_input"],
+                "properties": {
+                    "recipe": {"type": "string"},
+                    "error": {"type": "string", "description": "one-line error"},
+                    "bad_input": {
+                        "type": "boolean",
+                        "description": "true: the recipe or its maps are wrong (exit 2); "
+                        "false: an internal error (exit 1)",
+                    },
+                },
+            },
+        },
+    },
+}
+
 
 @click.command("convert")
 @click.argument("recipes", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option(
-    "-o",
-    "--outdir",
-    required=True,
-    type=click.Path(file_okay=False, path_type=Path),
-    help="Assets are written to OUTDIR/<name>/<name>.usd.",
-)
+@output_option(folder=True, required=True, help="Assets are written to DIR/<name>/<name>.usd.")
 @click.option(
     "-j",
     "--jobs",
@@ -36,9 +78,16 @@ EXIT_INTERNAL = 1
     help="Convert on an existing Dask cluster (tcp://host:8786) instead of local processes; "
     "recipes and maps must be on storage every worker sees at the same path (docs/farm.md).",
 )
+@json_option(JSON_SCHEMA)
+@requires("pymeshlab", "xatlas")
 @one_line_errors
 def convert(
-    recipes: tuple[str, ...], outdir: Path, jobs: int, force: bool, scheduler: str | None
+    recipes: tuple[str, ...],
+    output: Path,
+    jobs: int,
+    force: bool,
+    scheduler: str | None,
+    json_target: str | None,
 ) -> None:
     """Convert feather RECIPEs (TOML: maps, material, geometry) into USD assets.
 
@@ -46,22 +95,17 @@ def convert(
     summary names every failure. Exit status: 0 all converted, 2 bad input, 1 internal error.
     Recipe reference: docs/pipeline.md.
     """
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
     from pavonine.pipeline.convert.batch import convert_many
 
-    console = Console(stderr=True)
-    # Only a terminal gets the (transient) bar: in a log or a pipe it would leave a blank line.
-    with Progress(
+    columns = (
         TextColumn("[bold]{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
         TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,
-    ) as progress:
+    )
+    with progress_bar(*columns) as progress:
         task = progress.add_task("converting", total=len(recipes))
 
         def on_stage(recipe: str, stage: str) -> None:
@@ -76,12 +120,12 @@ def convert(
 
             with open_cluster(scheduler=scheduler) as cluster:
                 results = convert_on_cluster(
-                    list(recipes), outdir, cluster.client, force=force, on_done=on_done
+                    list(recipes), output, cluster.client, force=force, on_done=on_done
                 )
         else:
             results = convert_many(
                 list(recipes),
-                outdir,
+                output,
                 jobs=jobs,
                 force=force,
                 on_done=on_done,
@@ -89,6 +133,24 @@ def convert(
             )
 
     failed = [r for r in results if not r.ok]
+    emit_json(
+        json_target,
+        {
+            "converted": [
+                {
+                    "recipe": r.recipe,
+                    "asset": str(r.root),
+                    "triangles": dict(r.triangles),
+                    "seconds": round(sum(r.seconds.values()), 3),
+                }
+                for r in results
+                if r.ok
+            ],
+            "failed": [
+                {"recipe": r.recipe, "error": r.error, "bad_input": r.bad_input} for r in failed
+            ],
+        },
+    )
     if len(recipes) == 1 and failed:
         click.echo(f"error: {failed[0].error}", err=True)
         sys.exit(EXIT_BAD_INPUT if failed[0].bad_input else EXIT_INTERNAL)
@@ -96,9 +158,11 @@ def convert(
         if r.ok:
             tris = "/".join(f"{r.triangles[lod]:,}" for lod in ("high", "medium", "low"))
             total = sum(r.seconds.values())
-            click.echo(f"ok      {r.root}  (triangles high/medium/low {tris}; {total:.1f} s)")
+            say(f"ok      {r.root}  (triangles high/medium/low {tris}; {total:.1f} s)")
     for r in failed:
         click.echo(f"FAILED  {r.recipe}: {r.error}", err=True)
-    click.echo(f"{len(results) - len(failed)} converted, {len(failed)} failed", err=bool(failed))
+    summary = f"{len(results) - len(failed)} converted, {len(failed)} failed"
     if failed:
+        click.echo(summary, err=True)
         sys.exit(EXIT_INTERNAL if any(not r.bad_input for r in failed) else EXIT_BAD_INPUT)
+    say(summary)

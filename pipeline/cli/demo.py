@@ -6,18 +6,79 @@ from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    display_options,
+    emit_json,
+    json_option,
+    log,
+    output_option,
+    requires,
+    say,
+    show_progress,
+    threads_option,
+    warnings_to_log,
+)
 from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.shipped import assets_dir
 
 FEATHER = "eye_feather"
+SCENE = "eye_feather_sun"
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["maps", "asset", "scene", "exr", "png", "triangles", "seconds"],
+    "properties": {
+        "maps": {"type": "string", "description": "folder of the six maps and the contact sheet"},
+        "asset": {"type": "string", "description": "root layer of the USD component asset"},
+        "scene": {"type": "string", "description": "the scene referencing the asset"},
+        "exr": {"type": "string", "description": "scene-linear render"},
+        "png": {"type": "string", "description": "display render"},
+        "triangles": {
+            "type": "object",
+            "description": "triangles per LOD",
+            "additionalProperties": {"type": "integer"},
+        },
+        "seconds": {
+            "type": "object",
+            "description": "wall time per step (maps, convert, render)",
+            "additionalProperties": {"type": "number"},
+        },
+    },
+}
 
 
 def _shipped(*parts: str) -> Path:
-    from pavonine.pipeline.compare.baselines import REPO_ROOT
-
-    path = REPO_ROOT.joinpath("assets", *parts)
+    path = assets_dir().joinpath(*parts)
     if not path.exists():
-        raise InputError(str(path), "shipped example not found (run from a source checkout)")
+        raise InputError(str(path), "shipped example not found (is pavonine installed completely?)")
     return path
+
+
+#: What the demo renders when Mitsuba has only its scalar fallback (no libLLVM): about 2 minutes
+#: on 2 cores instead of about 14 hours for the default size.
+SCALAR_FALLBACK = (8, (96, 144))
+
+
+def _fallback_size(spp: int, size: tuple[int, int]) -> tuple[int, tuple[int, int]]:
+    """``spp`` and ``size``, or :data:`SCALAR_FALLBACK` when Mitsuba runs its scalar fallback and
+    the user asked for neither (then says so)."""
+    from click.core import ParameterSource
+
+    from pavonine.backend import select_variant
+
+    ctx = click.get_current_context()
+    defaults = all(
+        ctx.get_parameter_source(name) == ParameterSource.DEFAULT for name in ("spp", "resolution")
+    )
+    if not defaults or not select_variant().variant.startswith("scalar"):
+        return spp, size
+    fallback_spp, fallback_size = SCALAR_FALLBACK
+    log.warning(
+        "no libLLVM: Mitsuba's scalar fallback is slow, so the demo renders %dx%d at %d spp "
+        "(install Debian's libllvm19 for %dx%d at %d spp)",
+        *fallback_size, fallback_spp, *size, spp,
+    )  # fmt: skip
+    return fallback_spp, fallback_size
 
 
 def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
@@ -34,9 +95,7 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
 
 
 @click.command()
-@click.argument(
-    "outdir", type=click.Path(file_okay=False, path_type=Path), default=Path("out/demo")
-)
+@output_option(folder=True, default=Path("out/demo"), help="Folder for everything the demo makes.")
 @click.option(
     "--size",
     default=1024,
@@ -55,47 +114,85 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
 @click.option(
     "--seed", default=1, show_default=True, type=int, help="Seed for the maps and the render."
 )
+@display_options
+@threads_option
+@json_option(JSON_SCHEMA)
+@requires("mitsuba", "drjit", "pymeshlab", "xatlas")
 @one_line_errors
-def demo(outdir: Path, size: int, spp: int, resolution: str, seed: int) -> None:
+def demo(
+    output: Path,
+    size: int,
+    spp: int,
+    resolution: str,
+    seed: int,
+    display,
+    json_target: str | None,
+) -> None:
     """Paint the eye feather's maps, convert them to a USD asset and render it lit by the sun.
 
-    Writes OUTDIR/maps/eye/ (six maps and a contact sheet), OUTDIR/assets/eye_feather/ (the USD
-    component asset), OUTDIR/eye_feather_sun.usda (the scene) and OUTDIR/eye_feather_sun.{exr,png}.
+    Writes DIR/maps/eye/ (six maps and a contact sheet), DIR/assets/eye_feather/ (the USD
+    component asset), DIR/eye_feather_sun.usda (the scene) and DIR/eye_feather_sun.{exr,png}.
+    Works from an installed package: the recipe and scene are package data.
     """
-    from rich.console import Console
+    import time
 
+    from pavonine.backend import BackendWarning
     from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.paint import generate_maps, write_contact_sheet, write_maps
     from pavonine.render.api import render_stage
+    from pavonine.render.diagnostics import StageWarning
     from pavonine.render.imageio import write_render
     from pavonine.render.settings import parse_resolution
 
     width, height = parse_resolution(resolution)
+    with warnings_to_log(BackendWarning):
+        spp, (width, height) = _fallback_size(spp, (width, height))
     recipe_text = _shipped("recipes", f"{FEATHER}.toml").read_text()
-    shipped_scene = _shipped("scenes", "eye_feather_sun.usda")
-    console = Console(stderr=True)
+    shipped_scene = _shipped("scenes", f"{SCENE}.usda")
+    seconds = {}
 
-    console.print(f"[1/4] painting the eye feather's maps ({size} px)")
-    maps_dir = outdir / "maps" / "eye"
+    log.info("[1/4] painting the eye feather's maps (%d px)", size)
+    start = time.perf_counter()
+    maps_dir = output / "maps" / "eye"
     images = generate_maps("eye", size, seed)
     write_maps(images, maps_dir)
     write_contact_sheet(images, maps_dir / "contact_sheet.png", "eye feather maps")
+    seconds["maps"] = time.perf_counter() - start
 
-    console.print("[2/4] converting to a USD component asset (mesh, atlas, displacement, LODs)")
-    recipe = outdir / f"{FEATHER}.toml"
+    log.info("[2/4] converting to a USD component asset (mesh, atlas, displacement, LODs)")
+    start = time.perf_counter()
+    recipe = output / f"{FEATHER}.toml"
     recipe.write_text(recipe_text)
     result = convert_recipe(
-        recipe, outdir / "assets", force=True, report=lambda stage: console.print(f"      {stage}")
+        recipe, output / "assets", force=True, report=lambda stage: log.info("      %s", stage)
     )
     triangles = ", ".join(f"{lod} {n:,}" for lod, n in result.triangles.items())
-    console.print(f"      {result.root} ({triangles} triangles)")
+    log.info("      %s (%s triangles)", result.root, triangles)
+    seconds["convert"] = time.perf_counter() - start
 
-    console.print("[3/4] writing the scene: sun from the right, as in the paper's Figure 13")
-    scene = outdir / "eye_feather_sun.usda"
+    log.info("[3/4] writing the scene: sun from the right, as in the paper's Figure 13")
+    scene = output / f"{SCENE}.usda"
     write_scene(shipped_scene, result.root, scene)
 
-    console.print(f"[4/4] rendering {width}×{height} at {spp} spp")
-    rendered = render_stage(scene, spp=spp, resolution=(width, height), seed=seed)
-    exr, png = outdir / "eye_feather_sun.exr", outdir / "eye_feather_sun.png"
-    write_render(exr, rendered.rgb, rendered.metadata, png_path=png)
-    click.echo(f"wrote {png}")
+    log.info("[4/4] rendering %d×%d at %d spp", width, height, spp)
+    start = time.perf_counter()
+    with warnings_to_log(StageWarning):
+        rendered = render_stage(
+            scene, spp=spp, resolution=(width, height), seed=seed, progress=show_progress()
+        )
+    exr, png = output / f"{SCENE}.exr", output / f"{SCENE}.png"
+    write_render(exr, rendered.rgb, rendered.metadata, png_path=png, display=display)
+    seconds["render"] = time.perf_counter() - start
+    say(f"wrote {png}")
+    emit_json(
+        json_target,
+        {
+            "maps": str(maps_dir),
+            "asset": str(result.root),
+            "scene": str(scene),
+            "exr": str(exr),
+            "png": str(png),
+            "triangles": dict(result.triangles),
+            "seconds": {k: round(v, 3) for k, v in seconds.items()},
+        },
+    )

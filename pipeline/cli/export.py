@@ -6,23 +6,42 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.cli.jsonout import json_option, say, write_json
+from pavonine.pipeline.cli.options import emit_json, json_option, output_option, requires, say
 from pavonine.pipeline.errors import one_line_errors
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["asset", "output", "lod", "meshes", "materials", "bytes"],
+    "properties": {
+        "asset": {"type": "string", "description": "root layer of the asset exported"},
+        "output": {"type": "string", "description": "the .glb written"},
+        "lod": {"type": ["string", "null"], "description": "the 'lod' variant exported"},
+        "meshes": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["path", "vertices", "triangles"],
+                "properties": {
+                    "path": {"type": "string", "description": "the USD mesh prim"},
+                    "vertices": {"type": "integer"},
+                    "triangles": {"type": "integer"},
+                },
+            },
+        },
+        "materials": {"type": "array", "items": {"type": "string"}},
+        "bytes": {"type": "integer", "description": "size of the .glb"},
+    },
+}
 
 
 @click.command("export")
 @click.argument("asset", type=click.Path(path_type=Path))
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="The .glb (binary glTF 2.0) file to write.",
-)
+@output_option(folder=False, required=True, help="The .glb (binary glTF 2.0) file to write.")
 @click.option(
     "--lod", default=None, help="Level of detail (the asset's 'lod' variant) [default: its own]."
 )
-@json_option
+@json_option(JSON_SCHEMA)
+@requires("pygltflib")
 @one_line_errors
 def export(asset: Path, output: Path, lod: str | None, json_target: str | None) -> None:
     """Export ASSET (a root layer, or its folder) as a binary glTF 2.0 file.
@@ -39,7 +58,6 @@ def export(asset: Path, output: Path, lod: str | None, json_target: str | None) 
     triangles = sum(m["triangles"] for m in report.meshes)
     say(
         f"wrote   {report.output}: {len(report.meshes)} meshes, {triangles:,} triangles, "
-        f"{len(report.materials)} materials, {report.bytes:,} bytes",
-        json_target,
+        f"{len(report.materials)} materials, {report.bytes:,} bytes"
     )
-    write_json(report.as_dict(), json_target)
+    emit_json(json_target, report.as_dict())

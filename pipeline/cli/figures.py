@@ -6,11 +6,34 @@ from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    display_options,
+    emit_json,
+    json_option,
+    log,
+    output_option,
+    progress_bar,
+    say,
+)
 from pavonine.pipeline.errors import atomic_path, one_line_errors
+
+DEFAULT_OUTPUT = Path("out/figures")
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["files"],
+    "properties": {
+        "files": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "the PNG files written, in order",
+        }
+    },
+}
 
 
 @click.command()
-@click.argument("outdir", type=click.Path(file_okay=False, path_type=Path))
+@output_option(folder=True, default=DEFAULT_OUTPUT, help="Folder for the figures.")
 @click.option(
     "--interference",
     type=click.Choice(["paper", "intensity", "physical"]),
@@ -19,16 +42,17 @@ from pavonine.pipeline.errors import atomic_path, one_line_errors
     help="Mode of the Figure 5 spectra and the class swatches (physical: the freyer2020 classes, "
     "Table 1's class 4 short axis does not fit a real rod lattice).",
 )
+@json_option(JSON_SCHEMA)
+@display_options
 @one_line_errors
-def figures(outdir: Path, interference: str) -> None:
+def figures(output: Path, interference: str, json_target: str | None, display) -> None:
     """Write analogues of Figures 5 (yellow, blue), 7, 10, a class swatch chart and the
-    physical-mode check (paper mode, physical mode and RCWA of the rod lattice) to OUTDIR.
+    physical-mode check (paper mode, physical mode and RCWA of the rod lattice).
 
     The RCWA figure marks a few wavelengths solved by the independent grcwa package too; without
     it (``pip install 'pavonine[dev]'``) the figure is drawn without them and a warning says so.
+    Colours are display-referred through the display transform (--ocio-config, --view, …).
     """
-    from rich.progress import Progress
-
     from pavonine.materials import plots
     from pavonine.materials.parameters import preset
 
@@ -51,12 +75,15 @@ def figures(outdir: Path, interference: str) -> None:
         ("table1_swatches.png", lambda p: plots.table1_swatches(p, swatches)),
         ("physical_vs_rcwa.png", plots.physical_comparison),
     ]
-    with Progress(transient=True) as progress:
+    written = []
+    with progress_bar() as progress:
         task = progress.add_task("figures", total=len(jobs))
         for name, make in jobs:
-            with atomic_path(outdir / name) as tmp:
+            with atomic_path(output / name) as tmp:
                 note = make(tmp)
             progress.advance(task)
-            click.echo(f"wrote {outdir / name}")
+            written.append(str(output / name))
+            say(f"wrote {output / name}")
             if isinstance(note, str):
-                click.echo(f"warning: {name}: {note} (pip install 'pavonine[dev]')", err=True)
+                log.warning("%s: %s (pip install 'pavonine[dev]')", name, note)
+    emit_json(json_target, {"files": written})

@@ -6,20 +6,29 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.cli.jsonout import json_option, say, write_json
+from pavonine.pipeline.cli.options import emit_json, json_option, output_option, say
 from pavonine.pipeline.errors import one_line_errors
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["asset", "output", "files", "bytes"],
+    "properties": {
+        "asset": {"type": "string", "description": "root layer of the asset packed"},
+        "output": {"type": "string", "description": "the .usdz written"},
+        "files": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "the files inside the package",
+        },
+        "bytes": {"type": "integer", "description": "size of the .usdz"},
+    },
+}
 
 
 @click.command("package")
 @click.argument("asset", type=click.Path(path_type=Path))
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="The .usdz file to write.",
-)
-@json_option
+@output_option(folder=False, required=True, help="The .usdz file to write.")
+@json_option(JSON_SCHEMA)
 @one_line_errors
 def package(asset: Path, output: Path, json_target: str | None) -> None:
     """Pack ASSET (a root layer, or its folder) into one .usdz with USD's own packaging.
@@ -32,5 +41,5 @@ def package(asset: Path, output: Path, json_target: str | None) -> None:
     from pavonine.pipeline.export.usdz import package_asset
 
     report = package_asset(asset, output)
-    say(f"wrote   {report.output}: {len(report.files)} files, {report.bytes:,} bytes", json_target)
-    write_json(report.as_dict(), json_target)
+    say(f"wrote   {report.output}: {len(report.files)} files, {report.bytes:,} bytes")
+    emit_json(json_target, report.as_dict())

@@ -2,29 +2,103 @@
 
 from __future__ import annotations
 
-import warnings
+from dataclasses import asdict
 from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    display_options,
+    emit_json,
+    json_option,
+    output_option,
+    requires,
+    say,
+    show_progress,
+    threads_option,
+    warnings_to_log,
+)
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.pipeline.farm.options import farm_options
+
+_PATH_OR_NULL = {"type": ["string", "null"]}
+
+#: One image written (one per camera, RenderProduct and frame).
+IMAGE_SCHEMA = {
+    "type": "object",
+    "required": ["exr", "png", "variance", "camera", "time", "resolution", "spp", "warnings"],
+    "properties": {
+        "exr": {"type": "string", "description": "scene-linear EXR written"},
+        "png": {**_PATH_OR_NULL, "description": "display PNG written, if any"},
+        "variance": {**_PATH_OR_NULL, "description": "per-pixel variance EXR, if any"},
+        "label": {"type": "string", "description": "what tells it apart in a batch"},
+        "camera": {**_PATH_OR_NULL, "description": "camera prim rendered through"},
+        "time": {"type": ["number", "null"], "description": "USD time code"},
+        "resolution": {
+            "type": "array",
+            "items": {"type": "integer"},
+            "minItems": 2,
+            "maxItems": 2,
+            "description": "[width, height] in pixels",
+        },
+        "spp": {"type": "integer", "description": "samples per pixel (all shards)"},
+        "variant": {"type": ["string", "null"], "description": "Mitsuba variant"},
+        "shards": {"type": "integer", "description": "sample shards merged into it"},
+        "workers": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "Dask workers that rendered it (empty: this process)",
+        },
+        "warnings": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "the renderer's warnings for this image",
+        },
+    },
+}
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["images", "spp", "seed", "variant", "seconds", "display", "warnings"],
+    "properties": {
+        "images": {"type": "array", "items": IMAGE_SCHEMA, "minItems": 1},
+        "spp": {"type": "integer", "description": "samples per pixel asked for"},
+        "seed": {"type": "integer"},
+        "variant": {"type": ["string", "null"], "description": "Mitsuba variant"},
+        "seconds": {"type": "number", "description": "wall time of the whole command's renders"},
+        "display": {
+            "type": ["object", "null"],
+            "description": "OCIO config, display, view and exposure of the PNGs (null: no PNG)",
+        },
+        "warnings": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "what the renderer could not render as USD says (also on stderr)",
+        },
+        "workers": {
+            "type": "integer",
+            "description": "Dask workers the batch ran on (0: in this process)",
+        },
+        "scheduler": {**_PATH_OR_NULL, "description": "Dask scheduler address, if any"},
+        "tasks": {
+            "type": "array",
+            "description": "per task of a batch: job, shard, spp, worker, seconds, bytes moved",
+            "items": {"type": "object"},
+        },
+    },
+}
 
 
 @click.command("render")
 @click.argument("stage", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Scene-linear EXR to write [default: STAGE's name with .exr, here].",
+@output_option(
+    folder=False, help="Scene-linear EXR to write [default: STAGE's name with .exr, here]."
 )
 @click.option(
     "--png",
     "png",
     is_flag=True,
-    help="Also write a display PNG (OCIO sRGB display) beside the EXR (OUTPUT with .png).",
+    help="Also write a display PNG beside the EXR (OUTPUT with .png).",
 )
 @click.option(
     "--png-out",
@@ -61,8 +135,10 @@ from pavonine.pipeline.farm.options import farm_options
     help="Random seed; the same seed gives the same image.",
 )
 @click.option("--variant", default=None, help="Mitsuba variant [default: llvm_ad_spectral].")
-@click.option("--view", default=None, help="OCIO view for the PNG [default: Un-tone-mapped].")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@display_options
+@threads_option
+@json_option(JSON_SCHEMA)
+@requires("mitsuba", "drjit")
 @one_line_errors
 def render(
     stage: Path,
@@ -83,22 +159,24 @@ def render(
     time_: float | None,
     seed: int,
     variant: str | None,
-    view: str | None,
-    quiet: bool,
+    display,
+    json_target: str | None,
 ) -> None:
     """Render a USD STAGE with the spectral Mitsuba delegate.
 
     Without a camera the stage is framed automatically; without lights it is lit by a default
-    sun (from the right) and sky, so a bare feather asset renders as it is.
+    sun (from the right) and sky, so a bare feather asset renders as it is. Anything the
+    renderer cannot render as USD says is named in a warning.
 
     Frame ranges, turntables, several cameras or RenderProducts write numbered images
     (OUT.####.exr; docs/farm.md) and run on a Dask cluster: embedded (--workers N, the default
     for more than one image) or existing (--scheduler ADDRESS).
     """
-    from pavonine.materials.colour import DEFAULT_VIEW
+    from pavonine.backend import BackendWarning
+    from pavonine.pipeline.farm.render import image_record
     from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import StageWarning
-    from pavonine.render.imageio import check_view, check_writable, write_render
+    from pavonine.render.imageio import check_writable, write_render
     from pavonine.render.settings import parse_resolution
 
     # Everything the user typed is checked before the (possibly long) render.
@@ -109,7 +187,8 @@ def render(
 
         render_batch(
             stage, output, png, png_out, spp, size, cameras, products, all_products, frames,
-            turntable, variance, workers, scheduler, split, time_, seed, variant, view, quiet,
+            turntable, variance, workers, scheduler, split, time_, seed, variant, display,
+            json_target,
         )  # fmt: skip
         return
     camera = cameras[0] if cameras else None
@@ -119,17 +198,11 @@ def render(
     if png_out is not None and png_out.suffix.lower() != ".png":
         raise InputError(f"--png-out {png_out}", "must name a .png file")
     png_path = png_out or (output.with_suffix(".png") if png else None)
-    view = check_view(view or DEFAULT_VIEW)
     for path in (output, png_path):
         if path is not None:
             check_writable(path)
 
-    def show(message, category, filename, lineno, file=None, line=None):
-        click.echo(f"warning: {message}", err=True)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("always", StageWarning)
-        warnings.showwarning = show
+    with warnings_to_log(StageWarning, BackendWarning):
         result = render_stage(
             stage,
             spp=spp,
@@ -138,12 +211,33 @@ def render(
             camera=camera,
             time=time_,
             variant=variant,
-            progress=not quiet,
+            progress=show_progress(),
         )
-    write_render(output, result.rgb, result.metadata, png_path=png_path, view=view)
+    write_render(output, result.rgb, result.metadata, png_path=png_path, display=display)
     written = [str(p) for p in (output, png_path) if p is not None]
     w, h = result.metadata["resolution"]
-    click.echo(
+    say(
         f"{' + '.join(written)}: {w}×{h}, {spp} spp, {result.metadata['variant']}, "
         f"{result.metadata['seconds']:.1f} s"
+    )
+    image = image_record(
+        result.metadata,
+        exr=output,
+        png=png_path,
+        label=output.name,
+        warnings=result.warnings,
+    )
+    emit_json(
+        json_target,
+        {
+            "images": [image],
+            "spp": spp,
+            "seed": seed,
+            "variant": result.metadata["variant"],
+            "seconds": result.metadata["seconds"],
+            "display": None if png_path is None else asdict(display),
+            "warnings": list(result.warnings),
+            "workers": 0,
+            "scheduler": None,
+        },
     )

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import json
 import math
 import sys
 from contextlib import ExitStack
@@ -11,7 +10,58 @@ from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.options import (
+    display_options,
+    emit_json,
+    json_option,
+    json_to_stdout,
+    output_option,
+    say,
+)
 from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
+
+DEFAULT_OUTPUT = Path("out/spectra")
+
+JSON_SCHEMA = {
+    "type": "object",
+    "required": ["label", "incidence_deg", "spectra", "files"],
+    "properties": {
+        "label": {
+            "type": "string",
+            "description": "preset (and class) or d…_a…_n… of the material",
+        },
+        "incidence_deg": {"type": "number", "description": "incidence angle, degrees"},
+        "spectra": {
+            "type": "array",
+            "description": "one entry per observation angle",
+            "items": {
+                "type": "object",
+                "required": ["observe_deg", "peak_nm", "fwhm_nm", "srgb"],
+                "properties": {
+                    "observe_deg": {"type": "number", "description": "observation angle, degrees"},
+                    "peak_nm": {"type": "number", "description": "peak wavelength, nm"},
+                    "fwhm_nm": {
+                        "type": ["number", "null"],
+                        "description": "full width at half maximum, nm (null: band not closed)",
+                    },
+                    "srgb": {
+                        "type": "array",
+                        "items": {"type": "number"},
+                        "minItems": 3,
+                        "maxItems": 3,
+                        "description": "display-referred swatch colour (0-1) through the display "
+                        "transform",
+                    },
+                },
+            },
+        },
+        "files": {
+            "type": "object",
+            "description": "what was written (empty under --json - without -o)",
+            "properties": {"png": {"type": "string"}, "csv": {"type": "string"}},
+        },
+    },
+}
 
 
 def _angles(text: str) -> list[float]:
@@ -113,21 +163,12 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 @click.option(
     "--structural-share", type=float, default=1.0, show_default=True, help="Melanin map value."
 )
-@click.option(
-    "-o",
-    "--output-dir",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("out/spectra"),
-    show_default=True,
-    help="Where the PNG and CSV go.",
+@output_option(
+    folder=True,
+    help=f"Folder for the PNG and CSV [default: {DEFAULT_OUTPUT}; none under --json - without -o].",
 )
-@click.option(
-    "--json",
-    "json_target",
-    default=None,
-    metavar="FILE|-",
-    help="Write the summary as JSON ('-' = stdout).",
-)
+@json_option(JSON_SCHEMA)
+@display_options
 @one_line_errors
 def spectra(
     preset_name,
@@ -141,11 +182,15 @@ def spectra(
     observe,
     azimuth,
     structural_share,
-    output_dir,
+    output,
     json_target,
+    display,
 ):
-    """Reflectance spectra (380–780 nm) per observation angle: PNG (paper Fig. 5 layout), CSV, table."""
-    from pavonine.materials import optics, plots
+    """Reflectance spectra (380–780 nm) per observation angle: PNG (paper Fig. 5 layout), CSV, table.
+
+    Colours are display-referred through the display transform (--ocio-config, --view, …).
+    """
+    from pavonine.materials import optics
 
     params, label = resolve_parameters(
         preset_name, ocellar_class, interval, radius, layers, interference
@@ -157,29 +202,44 @@ def spectra(
         azimuth_deg=azimuth,
         structural_share=structural_share,
     )
-    curves = optics.reflectance_spectra(params, incidence, observe_deg, **kwargs)
+    if output is None and json_to_stdout():  # a report on stdout only: write no files
+        summaries = optics.summarise(params, incidence, observe_deg, **kwargs)
+        files = {}
+    else:
+        summaries, files = _write_files(
+            output or DEFAULT_OUTPUT, params, label, incidence, observe_deg, kwargs
+        )
+    emit_json(
+        json_target,
+        {
+            "label": label,
+            "incidence_deg": incidence,
+            "spectra": [s.as_json() for s in summaries],
+            "files": files,
+        },
+    )
+    _print_table(label, incidence, summaries, sys.stdout.isatty())
+    if files:
+        say(f"wrote {files['png']} and {files['csv']}")
 
-    png = output_dir / f"spectra_{label}.png"
-    csv_path = output_dir / f"spectra_{label}.csv"
-    json_file = json_target if json_target not in (None, "-") else None
+
+def _write_files(output: Path, params, label, incidence, observe_deg, kwargs):
+    """The PNG (Fig. 5 layout) and CSV, renamed into place together; their summaries and paths."""
+    from pavonine.materials import optics, plots
+
+    curves = optics.reflectance_spectra(params, incidence, observe_deg, **kwargs)
+    png = output / f"spectra_{label}.png"
+    csv_path = output / f"spectra_{label}.csv"
     with ExitStack() as outputs:  # all renamed into place together, or none
         tmp_png = outputs.enter_context(atomic_path(png))
         tmp_csv = outputs.enter_context(atomic_path(csv_path))
-        tmp_json = outputs.enter_context(atomic_path(json_file)) if json_file else None
         summaries = plots.figure5(tmp_png, params, label, incidence, observe_deg, **kwargs)
         with open(tmp_csv, "w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(["wavelength_nm", *[f"observe_{o:g}deg" for o in observe_deg]])
             for i, lam in enumerate(optics.PLOT_WAVELENGTHS_NM):
                 writer.writerow([f"{lam:g}", *[f"{c[i]:.6g}" for c in curves]])
-        summary = [s.as_json() for s in summaries]
-        if tmp_json is not None:
-            tmp_json.write_text(json.dumps(summary, indent=2))
-    if json_target == "-":
-        click.echo(json.dumps(summary, indent=2))
-        return
-    _print_table(label, incidence, summaries, sys.stdout.isatty())
-    click.echo(f"wrote {png} and {csv_path}")
+    return summaries, {"png": str(png), "csv": str(csv_path)}
 
 
 def _print_table(label, incidence, summaries, colour: bool) -> None:
@@ -200,4 +260,4 @@ def _print_table(label, incidence, summaries, colour: bool) -> None:
             f"#{r:02x}{g:02x}{b:02x}",
             f"[on #{r:02x}{g:02x}{b:02x}]      [/]",
         )
-    Console(force_terminal=colour, width=100).print(table)
+    Console(force_terminal=colour, width=100, quiet=json_to_stdout()).print(table)

@@ -29,10 +29,11 @@ from pavonine.pipeline.compare.methods import (
     read_variance,
 )
 from pavonine.pipeline.errors import InputError
+from pavonine.shipped import baselines_dir, display_path, scenes_dir
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-SCENES_DIR = REPO_ROOT / "assets" / "scenes"
-BASELINES_DIR = REPO_ROOT / "assets" / "baselines"
+#: The shipped scenes and baselines (a checkout's ``assets/``, or an installed wheel's data).
+SCENES_DIR = scenes_dir()
+BASELINES_DIR = baselines_dir()
 
 MEAN_FILE = "mean.exr"
 VARIANCE_FILE = "variance.exr"
@@ -299,6 +300,7 @@ def update_baseline(
     }
     staging = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=root))
     try:
+        from pavonine.materials.display import REFERENCE_DISPLAY
         from pavonine.render.imageio import write_exr, write_png
 
         write_exr(staging / MEAN_FILE, render.rgb, {"scene": name, **settings.to_json()})
@@ -307,7 +309,7 @@ def update_baseline(
             render.variance,
             {"scene": name, "quantity": "variance of the mean (scene-linear units squared)"},
         )
-        write_png(staging / PREVIEW_FILE, render.rgb)
+        write_png(staging / PREVIEW_FILE, render.rgb, REFERENCE_DISPLAY)
         (staging / INFO_FILE).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
         for written in staging.iterdir():
             written.chmod(0o644)
@@ -431,10 +433,7 @@ def options_for(baseline: Baseline) -> CompareOptions:
 
 def relative_to_repo(path: str | Path) -> str:
     """``path`` relative to the repository when inside it (for records and messages)."""
-    try:
-        return str(Path(path).resolve().relative_to(REPO_ROOT))
-    except ValueError:
-        return str(path)
+    return display_path(path)
 
 
 def _jsonable(value: Any) -> Any:

@@ -12,22 +12,30 @@ tests of all scales form one family for the Šidák correction.
 Alternating Images", HPG) on display-referred images and thresholds its mean.
 
 Images are held scene-linear (Rec.709 primaries) in memory. PNG files are display-referred and are
-decoded with the inverse of the renderer's own OCIO display transform, for the view recorded in the
-PNG (``pavonine:view``, written by :mod:`pavonine.render.imageio`; ``Un-tone-mapped`` when absent,
-or as told); EXR files are encoded with the default view before FLIP. Images are written by
-:mod:`pavonine.render.imageio`.
+decoded with the inverse of the display transform recorded in the PNG (OCIO config, display, view
+and exposure, written by :mod:`pavonine.render.imageio`; the current display transform when the PNG
+records none), each field overridable. FLIP always sees both images through the pinned reference
+transform (:data:`pavonine.materials.display.REFERENCE_DISPLAY`), so ``$OCIO`` cannot move its
+verdict. Images are written by :mod:`pavonine.render.imageio`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from pavonine.materials.display import (
+    REFERENCE_DISPLAY,
+    DisplayError,
+    DisplayTransform,
+    current_display,
+    with_overrides,
+)
 from pavonine.pipeline.errors import InputError
 
 METHODS = ("stat", "flip")
@@ -60,7 +68,7 @@ class LoadedImage:
     rgb: np.ndarray
     display_referred: bool
     channels: int
-    view: str | None = None  # OCIO view a display-referred image was encoded with
+    display: DisplayTransform | None = None  # what a display-referred image was encoded with
 
     @property
     def size(self) -> tuple[int, int]:
@@ -104,14 +112,14 @@ def _as_rgb(pixels: np.ndarray, path: Path) -> np.ndarray:
     raise InputError(str(path), f"has {channels} channels; expected 1 (grey), 3 (RGB) or 4 (RGBA)")
 
 
-def read_image(path: str | Path, view: str | None = None) -> LoadedImage:
+def read_image(path: str | Path, overrides: Mapping[str, Any] | None = None) -> LoadedImage:
     """Read an EXR (scene-linear) or PNG (display-referred, decoded to linear) for comparison.
 
-    A PNG is decoded with ``view`` if given, else with the OCIO view recorded in it by
-    :func:`pavonine.render.imageio.write_png`, else with the default view.
+    A PNG is decoded with the display transform recorded in it by
+    :func:`pavonine.render.imageio.write_png` (else the current one), with the fields in
+    ``overrides`` (``config``, ``display``, ``view``, ``exposure``) replaced.
     """
-    from pavonine.materials.colour import DEFAULT_VIEW
-    from pavonine.render.imageio import check_view, png_view
+    from pavonine.render.imageio import png_display
 
     path = Path(path)
     suffix = path.suffix.lower()
@@ -119,17 +127,17 @@ def read_image(path: str | Path, view: str | None = None) -> LoadedImage:
         raise InputError(str(path), f"unsupported image type '{suffix}'; expected .exr or .png")
     pixels, attributes = _read_pixels(path)
     rgb = _as_rgb(pixels, path)
-    display = suffix in _PNG
-    used_view = None
-    if display:
-        used_view = view or png_view(attributes) or DEFAULT_VIEW
+    display = None
+    if suffix in _PNG:
         try:
-            check_view(used_view)
-        except InputError as exc:
-            raise InputError(str(path), exc.message) from None
-        rgb = display_decode(rgb, used_view)
+            display = with_overrides(
+                (png_display(attributes) or current_display()).check(), **(overrides or {})
+            )
+        except DisplayError as exc:
+            raise InputError(str(path), f"{exc.field}: {exc.message}") from None
+        rgb = display.decode(rgb)
     rgb = np.ascontiguousarray(rgb, dtype=np.float32)
-    return LoadedImage(path, rgb, display, pixels.shape[2], used_view)
+    return LoadedImage(path, rgb, suffix in _PNG, pixels.shape[2], display)
 
 
 def read_variance(path: str | Path, size: tuple[int, int]) -> np.ndarray:
@@ -149,43 +157,19 @@ def read_variance(path: str | Path, size: tuple[int, int]) -> np.ndarray:
     return np.ascontiguousarray(variance, dtype=np.float32)
 
 
-@cache
-def _display_decoder(view: str):
-    """Inverse of the renderer's PNG transform (:mod:`pavonine.materials.colour`) for ``view``."""
-    import PyOpenColorIO as ocio
+def display_encode(linear: np.ndarray, display: DisplayTransform | None = None) -> np.ndarray:
+    """Scene-linear Rec.709 → display values in [0, 1], exactly as PNGs are encoded.
 
-    from pavonine.materials import colour
-
-    config = ocio.Config.CreateFromFile(colour.OCIO_CONFIG)
-    transform = ocio.DisplayViewTransform(
-        src=colour.SCENE_LINEAR,
-        display=colour.DISPLAY,
-        view=view,
-        direction=ocio.TRANSFORM_DIR_INVERSE,
-    )
-    return config.getProcessor(transform).getDefaultCPUProcessor()
-
-
-def display_encode(linear: np.ndarray, view: str | None = None) -> np.ndarray:
-    """Scene-linear Rec.709 → display sRGB in [0, 1], exactly as the renderer's PNGs are encoded.
-
-    OCIO built-in CG config, display ``sRGB - Display``, ``view`` (default ``Un-tone-mapped``)
-    (:func:`pavonine.materials.colour.display_encode`); non-finite values become 0 first.
+    ``display`` defaults to the pinned reference transform (``sRGB - Display``,
+    ``Un-tone-mapped``); non-finite values become 0 first.
     """
-    from pavonine.materials.colour import DEFAULT_VIEW
-    from pavonine.materials.colour import display_encode as encode
-
     rgb = np.nan_to_num(np.asarray(linear, np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    return np.asarray(encode(rgb, view=view or DEFAULT_VIEW), dtype=np.float32)
+    return (display or REFERENCE_DISPLAY).encode(rgb)
 
 
-def display_decode(encoded: np.ndarray, view: str | None = None) -> np.ndarray:
-    """Display sRGB in [0, 1] → scene-linear Rec.709 (inverse of :func:`display_encode`)."""
-    from pavonine.materials.colour import DEFAULT_VIEW
-
-    rgb = np.ascontiguousarray(encoded, dtype=np.float32).reshape(-1, 3).copy()
-    _display_decoder(view or DEFAULT_VIEW).applyRGB(rgb)
-    return rgb.reshape(np.shape(encoded))
+def display_decode(encoded: np.ndarray, display: DisplayTransform | None = None) -> np.ndarray:
+    """Display values in [0, 1] → scene-linear Rec.709 (inverse of :func:`display_encode`)."""
+    return (display or REFERENCE_DISPLAY).decode(encoded)
 
 
 def match_display_range(test: LoadedImage, ref: LoadedImage) -> tuple[LoadedImage, LoadedImage]:
@@ -198,13 +182,13 @@ def match_display_range(test: LoadedImage, ref: LoadedImage) -> tuple[LoadedImag
     if test.display_referred == ref.display_referred:
         return test, ref
 
-    view = test.view if test.display_referred else ref.view
+    display = test.display if test.display_referred else ref.display
 
     def clipped(image: LoadedImage) -> LoadedImage:
         if image.display_referred:
             return image
-        rgb = display_decode(display_encode(image.rgb, view), view).astype(np.float32)
-        return LoadedImage(image.path, rgb, image.display_referred, image.channels, view)
+        rgb = display_decode(display_encode(image.rgb, display), display).astype(np.float32)
+        return LoadedImage(image.path, rgb, image.display_referred, image.channels, display)
 
     return clipped(test), clipped(ref)
 
@@ -217,12 +201,12 @@ def quantization_variance(image: LoadedImage) -> np.ndarray:
     """
     if not image.display_referred:
         return np.zeros_like(image.rgb)
-    view = image.view
-    encoded = display_encode(image.rgb, view)
+    display = image.display
+    encoded = display_encode(image.rgb, display)
     step = 0.5 / 255.0
     slope = (
-        display_decode(np.clip(encoded + step, 0, 1), view)
-        - display_decode(np.clip(encoded - step, 0, 1), view)
+        display_decode(np.clip(encoded + step, 0, 1), display)
+        - display_decode(np.clip(encoded - step, 0, 1), display)
     ) * 255.0
     return (slope**2 * (1.0 / 255.0) ** 2 / 12.0).astype(np.float32)
 

@@ -4,13 +4,18 @@ pick where they run (this process, local workers, an existing scheduler), run, r
 from __future__ import annotations
 
 import os
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
+from pavonine.pipeline.cli.options import emit_json, log, say, show_progress
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.farm.jobs import View, parse_frames, plan
+
+if TYPE_CHECKING:
+    from pavonine.materials.display import DisplayTransform
 
 
 def product_views(stage_path: Path, products: tuple[str, ...], every: bool) -> list[View]:
@@ -50,10 +55,10 @@ def product_views(stage_path: Path, products: tuple[str, ...], every: bool) -> l
             product.GetPixelAspectRatioAttr().HasAuthoredValue()
             or product.GetAspectRatioConformPolicyAttr().HasAuthoredValue()
         ):
-            click.echo(
-                f"warning: {path}: a product's pixelAspectRatio and aspectRatioConformPolicy are "
-                "not applied per product (the RenderSettings' are)",
-                err=True,
+            log.warning(
+                "%s: a product's pixelAspectRatio and aspectRatioConformPolicy are not applied "
+                "per product (the RenderSettings' are)",
+                path,
             )
         views.append(View(prim.GetName(), camera, resolution))
     return views
@@ -84,19 +89,21 @@ def render_batch(
     time: float | None,
     seed: int,
     variant: str | None,
-    view: str | None,
-    quiet: bool,
+    display: DisplayTransform,
+    json_target: str | None = None,
 ) -> None:
     """The batch path of ``pavonine render`` (see :mod:`pavonine.pipeline.farm`)."""
-    from pavonine.materials.colour import DEFAULT_VIEW
-    from pavonine.pipeline.farm.cluster import open_cluster
+    from pavonine.backend import thread_count
+    from pavonine.pipeline.farm.cluster import NO_FARM, farm_installed, open_cluster
     from pavonine.pipeline.farm.render import FarmError, run_batch
-    from pavonine.render.imageio import check_view, check_writable
+    from pavonine.render.imageio import check_writable
 
     if not stage.is_file():
         raise InputError(str(stage), "no such file")
     if workers is not None and scheduler is not None:
         raise InputError("--workers", "give --workers (local cluster) or --scheduler, not both")
+    if (scheduler is not None or workers) and not farm_installed():
+        raise InputError("--scheduler" if scheduler is not None else "--workers", NO_FARM)
     if turntable and (frames_text or len(cameras) > 1 or products or all_products):
         raise InputError(
             "--turntable", "orbits one camera at one time: drop --frames/--product/extra --camera"
@@ -108,7 +115,6 @@ def render_batch(
         raise InputError(str(output), "output must be an .exr file (use --png for a display image)")
     if png_out is not None and png_out.suffix.lower() != ".png":
         raise InputError(f"--png-out {png_out}", "must name a .png file")
-    view = check_view(view or DEFAULT_VIEW)
     frames = parse_frames(frames_text) if frames_text else None
     stage_path = stage.resolve()
     if turntable:
@@ -168,25 +174,26 @@ def render_batch(
 
     if scheduler is None and workers is None:
         workers = default_workers(len(jobs), split)
+        if workers and not farm_installed():
+            log.info("rendering in this process: local Dask workers need the [farm] extra")
+            workers = 0
     use_cluster = scheduler is not None or (workers or 0) > 0
 
     def show(record) -> None:
-        if quiet:
-            return
         written = " + ".join(
-            str(p) for p in (record["output"], record["png"], record["variance"]) if p
+            str(p) for p in (record["exr"], record["png"], record["variance"]) if p
         )
         w, h = record["resolution"]
-        click.echo(
+        say(
             f"{written}: {w}×{h}, {record['spp']} spp"
             + (f" in {record['shards']} shards" if record["shards"] > 1 else "")
         )
         for message in record["warnings"]:
-            click.echo(f"warning: {message}", err=True)
+            log.warning("%s", message)
 
     try:
         if use_cluster:
-            with open_cluster(workers, scheduler) as cluster:
+            with open_cluster(workers, scheduler, threads=thread_count()) as cluster:
                 shards = split or (cluster.workers if len(jobs) == 1 else 1)
                 report = run_batch(
                     jobs,
@@ -194,9 +201,9 @@ def render_batch(
                     seed=seed,
                     shards=shards,
                     variant=variant,
-                    view=view,
+                    display=display,
                     cluster=cluster,
-                    progress=not quiet,
+                    progress=show_progress(),
                     on_image=show,
                 )
         else:
@@ -206,8 +213,8 @@ def render_batch(
                 seed=seed,
                 shards=split or 1,
                 variant=variant,
-                view=view,
-                progress=not quiet,
+                display=display,
+                progress=show_progress(),
                 on_image=show,
             )
     except FarmError as exc:
@@ -218,6 +225,22 @@ def render_batch(
         if not use_cluster
         else f"on {report.workers} worker(s) ({report.scheduler})"
     )
-    click.echo(
+    say(
         f"{len(report.images)} image(s), {len(report.tasks)} task(s) {where}, {report.seconds:.1f} s"
+    )
+    warnings = sorted({w for image in report.images for w in image["warnings"]})
+    emit_json(
+        json_target,
+        {
+            "images": report.images,
+            "spp": spp,
+            "seed": seed,
+            "variant": report.images[0]["variant"] if report.images else variant,
+            "seconds": round(report.seconds, 3),
+            "display": asdict(display) if any(i["png"] for i in report.images) else None,
+            "warnings": warnings,
+            "workers": report.workers,
+            "scheduler": report.scheduler,
+            "tasks": report.tasks,
+        },
     )

@@ -30,14 +30,22 @@ class Cluster:
     local: bool
 
 
+#: What a farm option says when Dask is not installed.
+NO_FARM = "needs the [farm] extra (no module 'distributed'); install it with: pip install 'pavonine[farm]'"
+
+
+def farm_installed() -> bool:
+    """Dask's ``distributed`` can be imported (the ``[farm]`` extra)."""
+    from pavonine.pipeline.cli.options import importable
+
+    return importable("distributed")
+
+
 def _distributed():
     try:
         import distributed
     except ImportError:
-        raise InputError(
-            "--workers/--scheduler",
-            "Dask is not installed; install pavonine's farm extra: pip install 'pavonine[farm]'",
-        ) from None
+        raise InputError("--workers/--scheduler", NO_FARM) from None
     return distributed
 
 

@@ -43,13 +43,13 @@ def farm_options(command):
             type=click.IntRange(min=0),
             default=None,
             help="Local Dask worker processes [default: one per core when there is more than one "
-            "image or shard]; 0 renders in this process.",
+            "image or shard and the [farm] extra is installed]; 0 renders in this process.",
         ),
         click.option(
             "--scheduler",
             metavar="ADDRESS",
-            help="Run on an existing Dask cluster (tcp://host:8786); inputs must be on storage "
-            "every worker sees at the same path.",
+            help="Run on an existing Dask cluster (tcp://host:8786; the [farm] extra); inputs "
+            "must be on storage every worker sees at the same path.",
         ),
         click.option(
             "--split",

@@ -15,7 +15,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,9 @@ from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.farm.jobs import RenderJob, shard_seed, shards_for
 from pavonine.pipeline.farm.merge import merge_means, merge_variances
 from pavonine.pipeline.farm.tasks import RenderShard, RenderTask, render_task
+
+if TYPE_CHECKING:
+    from pavonine.materials.display import DisplayTransform
 
 
 class FarmError(Exception):
@@ -89,7 +92,9 @@ def make_tasks(
     return tasks
 
 
-def write_image(job: RenderJob, parts: list[RenderShard], seed: int, view: str) -> dict[str, Any]:
+def write_image(
+    job: RenderJob, parts: list[RenderShard], seed: int, display: DisplayTransform | None = None
+) -> dict[str, Any]:
     """Merge a job's shards and write its EXR (+ PNG, + variance) atomically; returns its record."""
     import contextlib
 
@@ -119,21 +124,47 @@ def write_image(job: RenderJob, parts: list[RenderShard], seed: int, view: str) 
         var_tmp = stack.enter_context(atomic_path(job.variance)) if job.variance else None
         write_exr(exr_tmp, rgb, metadata)
         if png_tmp is not None:
-            write_png(png_tmp, rgb, view=view)
+            write_png(png_tmp, rgb, display)
         if var_tmp is not None:
             write_exr(var_tmp, variance, {**metadata, "quantity": "variance of the mean"})
+    return image_record(
+        metadata,
+        exr=job.output,
+        png=job.png,
+        variance=job.variance,
+        label=job.label,
+        shards=len(parts),
+        workers=metadata["workers"],
+        warnings=sorted({w for p in parts for w in p.warnings}),
+    )
+
+
+def image_record(
+    metadata: dict[str, Any],
+    *,
+    exr,
+    png=None,
+    variance=None,
+    label: str = "",
+    shards: int = 1,
+    workers: list[str] | tuple[str, ...] = (),
+    warnings: list[str] | tuple[str, ...] = (),
+) -> dict[str, Any]:
+    """What ``pavonine render --json`` reports of one image written (its ``IMAGE_SCHEMA``)."""
+    time_code = metadata.get("time")
     return {
-        "output": str(job.output),
-        "png": None if job.png is None else str(job.png),
-        "variance": None if job.variance is None else str(job.variance),
-        "label": job.label,
+        "exr": str(exr),
+        "png": None if png is None else str(png),
+        "variance": None if variance is None else str(variance),
+        "label": label,
         "camera": metadata.get("camera"),
-        "time": metadata.get("time"),
+        "time": float(time_code) if isinstance(time_code, (int, float)) else None,
         "resolution": metadata.get("resolution"),
-        "spp": metadata["spp"],
-        "shards": len(parts),
-        "workers": metadata["workers"],
-        "warnings": sorted({w for p in parts for w in p.warnings}),
+        "spp": int(metadata["spp"]),
+        "variant": metadata.get("variant"),
+        "shards": shards,
+        "workers": list(workers),
+        "warnings": list(warnings),
     }
 
 
@@ -156,7 +187,7 @@ def run_batch(
     seed: int = 0,
     shards: int = 1,
     variant: str | None = None,
-    view: str,
+    display: DisplayTransform | None = None,
     cluster=None,
     progress: bool = True,
     on_image: Callable[[dict[str, Any]], None] | None = None,
@@ -198,7 +229,7 @@ def run_batch(
             report.tasks.append(_task_record(task, shard, size))
             per_job.setdefault(task.job, []).append(shard)
             if len(per_job[task.job]) == needed[task.job]:
-                record = write_image(jobs[task.job], per_job.pop(task.job), seed, view)
+                record = write_image(jobs[task.job], per_job.pop(task.job), seed, display)
                 report.images.append(record)
                 if on_image is not None:
                     on_image(record)
@@ -209,7 +240,7 @@ def run_batch(
                 collect(task, render_task(task))
         else:
             _run_on_cluster(cluster.client, tasks, collect)
-    report.images.sort(key=lambda r: r["output"])
+    report.images.sort(key=lambda r: r["exr"])
     report.seconds = time.perf_counter() - started
     return report
 

@@ -1,0 +1,470 @@
+"""The ``pavonine`` command-line convention, as reusable click decorators and helpers.
+
+Every command uses these instead of declaring its own variant (docs/cli.md describes the result):
+
+=====================  =========================================================================
+``output_option``      ``-o/--output PATH``: the file or folder the command writes (param ``output``)
+``json_option``        ``--json FILE|-``: the command's report as JSON, with a documented schema;
+                       ``-`` = stdout, and then nothing else goes to stdout (param ``json_target``)
+``junit_option``       ``--junit FILE``: results as JUnit XML for CI systems (param ``junit``)
+``threads_option``     ``--threads N`` (or ``$PAVONINE_THREADS``): worker threads (applied, no param)
+``display_options``    ``--ocio-config``/``--display``/``--view``/``--exposure``: the OCIO display
+                       transform of the PNGs written (param ``display``, a ``DisplayTransform``)
+``requires(*modules)`` the optional modules a command needs: checked before it starts, a missing
+                       one is a one-line error naming the extra that installs it
+(added by the group)   ``-v/--verbose``, ``-q/--quiet`` on every command: logging level; ``-q``
+                       hides progress bars
+=====================  =========================================================================
+
+Human output goes through :func:`say` / :func:`stdout_console` (silent under ``--json -``),
+messages through ``logging.getLogger("pavonine")`` (stderr, rich's handler on a terminal), progress
+through :func:`progress_bar` (stderr, hidden by ``-q`` and when stderr is not a terminal), reports
+through :func:`emit_json`. Errors: raise :class:`pavonine.pipeline.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import importlib.util
+import json
+import logging
+import sys
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import click
+
+from pavonine.pipeline.errors import InputError, atomic_path
+
+F = Callable[..., Any]
+
+LOGGER = "pavonine"
+log = logging.getLogger(LOGGER)
+
+_VERBOSITY = "pavonine.verbosity"
+_JSON_STDOUT = "pavonine.json_stdout"
+THREADS_ENV = "PAVONINE_THREADS"
+
+
+# ----------------------------------------------------------------------------------- extras
+#: Optional top-level module → the extra that installs it (``pip install 'pavonine[EXTRA]'``).
+EXTRA_OF_MODULE = {
+    "mitsuba": "render",
+    "drjit": "render",
+    "PyOpenColorIO": "render",
+    "flip_evaluator": "render",
+    "jinja2": "render",
+    "pymeshlab": "convert",
+    "xatlas": "convert",
+    "MaterialX": "convert",
+    "pygltflib": "convert",
+    "dask": "farm",
+    "distributed": "farm",
+}
+
+
+class MissingExtra(click.ClickException):
+    """A command needs an optional extra that is not installed (one line, exit 2)."""
+
+    exit_code = 2
+
+    def __init__(self, command: str, module: str):
+        extra = EXTRA_OF_MODULE[module]
+        super().__init__(
+            f"{command}: needs the [{extra}] extra (no module {module!r}); "
+            f"install it with: pip install 'pavonine[{extra}]'"
+        )
+
+
+#: System library a wheel loads → the Debian package that has it (named in errors).
+DEBIAN_PACKAGE_OF_LIBRARY = {
+    "libGL.so.1": "libgl1",
+    "libgomp.so.1": "libgomp1",
+    "libatomic.so.1": "libatomic1",
+    "libOpenGL.so.0": "libopengl0",
+}
+
+
+def _pymeshlab_filters(module) -> None:
+    """pymeshlab imports without its filter plugins when they cannot load libOpenGL."""
+    if not hasattr(module.MeshSet(), "meshing_decimation_quadric_edge_collapse"):
+        raise ImportError(
+            "pymeshlab's meshing filters did not load (libOpenGL.so.0: cannot open shared object "
+            "file)"
+        )
+
+
+#: Checks beyond importing: module name → a function raising ImportError when it is unusable.
+LOAD_CHECKS: dict[str, Callable[[Any], None]] = {"pymeshlab": _pymeshlab_filters}
+
+
+def load_error(error: BaseException) -> str:
+    """The first ImportError in ``error``'s chain (Dr.Jit hides it behind a NameError), one line."""
+    seen = error
+    while seen is not None and not isinstance(seen, ImportError):
+        seen = seen.__context__
+    return " ".join(str(seen or error).split())
+
+
+class MissingSystemLibrary(click.ClickException):
+    """An installed module cannot load a system library (one line, exit 2)."""
+
+    exit_code = 2
+
+    def __init__(self, command: str, module: str, error: BaseException):
+        message = load_error(error)
+        package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
+        hint = f" (Debian: apt-get install {package})" if package else ""
+        super().__init__(f"{command}: {module} cannot load: {message}{hint}")
+
+
+def importable(module: str) -> bool:
+    """``module`` can be imported (without importing it)."""
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def requires(*modules: str) -> Callable[[F], F]:
+    """Check before the command runs (so it writes nothing) that ``modules`` are installed and
+    load (a wheel can lack a system library, such as pymeshlab's libGL)."""
+
+    def decorate(func: F) -> F:
+        @functools.wraps(func)
+        def wrapper(*args, **kwargs):
+            command = click.get_current_context().command_path
+            for module in modules:
+                if not importable(module):
+                    raise MissingExtra(command, module)
+                try:
+                    loaded = importlib.import_module(module)
+                    LOAD_CHECKS.get(module, lambda m: None)(loaded)
+                except Exception as exc:  # a missing .so: ImportError, or worse from Dr.Jit
+                    raise MissingSystemLibrary(command, module, exc) from None
+            return func(*args, **kwargs)
+
+        wrapper.pavonine_requires = modules  # type: ignore[attr-defined]  (for docs/cli.md)
+        return wrapper  # type: ignore[return-value]
+
+    return decorate
+
+
+def required_extras(command: click.Command) -> list[str]:
+    """The extras a command declares with :func:`requires`, in order."""
+    modules = getattr(command.callback, "pavonine_requires", ())
+    return list(dict.fromkeys(EXTRA_OF_MODULE[m] for m in modules))
+
+
+# ------------------------------------------------------------------------------ -v / -q
+def _count_verbosity(ctx: click.Context, param: click.Parameter, value: int) -> None:
+    if value:
+        root = ctx.find_root()
+        sign = 1 if param.name == "verbose" else -1
+        root.meta[_VERBOSITY] = root.meta.get(_VERBOSITY, 0) + sign * value
+    configure_logging(verbosity(ctx))
+
+
+def verbosity_options() -> list[click.Option]:
+    """Fresh ``-v/--verbose`` and ``-q/--quiet`` options (the group adds them to every command)."""
+    common = dict(count=True, expose_value=False, is_eager=True, callback=_count_verbosity)
+    return [
+        click.Option(["-v", "--verbose"], help="More messages (-vv: debug).", **common),  # type: ignore[arg-type]
+        click.Option(
+            ["-q", "--quiet"], help="Only warnings and errors; no progress bars.", **common
+        ),  # type: ignore[arg-type]
+    ]
+
+
+def verbosity(ctx: click.Context | None = None) -> int:
+    """``-v`` count minus ``-q`` count for the current command (0 outside a command)."""
+    ctx = ctx or click.get_current_context(silent=True)
+    return 0 if ctx is None else ctx.find_root().meta.get(_VERBOSITY, 0)
+
+
+def quiet() -> bool:
+    """``-q`` was given: no progress bars, no informational messages."""
+    return verbosity() < 0
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Plain ``level: message`` lines on whatever ``sys.stderr`` is when a record is emitted."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.setStream(sys.stderr)
+        super().emit(record)
+
+
+class _LevelFormatter(logging.Formatter):
+    def format(self, record: logging.LogRecord) -> str:
+        return f"{record.levelname.lower()}: {record.getMessage()}"
+
+
+def configure_logging(level_offset: int = 0) -> None:
+    """Route ``pavonine`` log records to stderr: INFO by default, DEBUG with -v, WARNING with -q.
+
+    On a terminal through rich's handler; otherwise (CI logs, pipes) one ``level: message`` line
+    per record, so that logs stay greppable.
+    """
+    level = logging.INFO - 10 * max(-2, min(1, level_offset))
+    logger = logging.getLogger(LOGGER)
+    for handler in list(logger.handlers):
+        logger.removeHandler(handler)
+    if sys.stderr.isatty():
+        from rich.console import Console
+        from rich.logging import RichHandler
+
+        handler: logging.Handler = RichHandler(
+            console=Console(stderr=True), show_time=False, show_path=False, markup=False
+        )
+    else:
+        handler = _StderrHandler()
+        handler.setFormatter(_LevelFormatter())
+    logger.addHandler(handler)
+    logger.setLevel(level)
+    logger.propagate = False
+
+
+@contextlib.contextmanager
+def warnings_to_log(*categories: type[Warning]) -> Iterator[None]:
+    """Inside the block, every warning of ``categories`` (each once) becomes ``log.warning``."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        log.warning("%s", message)
+
+    with warnings.catch_warnings():
+        for category in categories or (Warning,):
+            warnings.simplefilter("always", category)
+        warnings.showwarning = show
+        yield
+
+
+def show_progress() -> bool:
+    """Progress bars are shown: not ``-q``, and stderr is a terminal."""
+    return not quiet() and sys.stderr.isatty()
+
+
+class _NoProgress:
+    """What :func:`progress_bar` gives when bars are hidden: the calls commands make, doing nothing
+    (a disabled rich bar can still print a blank line on some rich versions)."""
+
+    def __enter__(self) -> _NoProgress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def add_task(self, *args, **kwargs) -> int:
+        return 0
+
+    def advance(self, *args, **kwargs) -> None:
+        return None
+
+    def update(self, *args, **kwargs) -> None:
+        return None
+
+
+def progress_bar(*columns, transient: bool = True):
+    """A rich progress bar on stderr; nothing under ``-q`` or when stderr is not a terminal."""
+    if not show_progress():
+        return _NoProgress()
+    from rich.console import Console
+    from rich.progress import Progress
+
+    return Progress(*columns, console=Console(stderr=True), transient=transient)
+
+
+# ------------------------------------------------------------------------------------ -o
+def output_option(
+    *,
+    folder: bool,
+    default: Path | None = None,
+    required: bool = False,
+    help: str,
+) -> Callable[[F], F]:
+    """``-o/--output PATH``: where the command writes (a ``folder`` or a file), param ``output``."""
+    return click.option(
+        "-o",
+        "--output",
+        "output",
+        type=click.Path(file_okay=not folder, dir_okay=folder, path_type=Path),
+        default=default,
+        required=required,
+        show_default=default is not None,
+        metavar="DIR" if folder else "FILE",
+        help=help,
+    )
+
+
+# ---------------------------------------------------------------------------------- --json
+class JsonOption(click.Option):
+    """``--json FILE|-`` carrying the JSON Schema of the command's report (for docs and tests)."""
+
+    def __init__(self, *args, schema: dict[str, Any], **kwargs):
+        super().__init__(*args, **kwargs)
+        self.schema = schema
+
+
+def _json_target(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    if value == "-":
+        ctx.meta[_JSON_STDOUT] = True
+    elif value is not None and Path(value).is_dir():
+        raise click.BadParameter(f"{value} is a folder; give a file name or '-'", ctx, param)
+    return value
+
+
+def json_option(schema: dict[str, Any]) -> Callable[[F], F]:
+    """``--json FILE|-``: write the report (documented by ``schema``) to FILE, or stdout for ``-``."""
+    return click.option(
+        "--json",
+        "json_target",
+        cls=JsonOption,
+        schema=schema,
+        metavar="FILE|-",
+        callback=_json_target,
+        help="Write the report as JSON to FILE ('-': stdout, and nothing else on stdout).",
+    )
+
+
+def json_schema(command: click.Command) -> dict[str, Any] | None:
+    """The report schema of a command's ``--json`` option (``None`` if it has none)."""
+    for param in command.params:
+        if isinstance(param, JsonOption):
+            return param.schema
+    return None
+
+
+def json_to_stdout() -> bool:
+    """``--json -`` was given: stdout belongs to the JSON report."""
+    ctx = click.get_current_context(silent=True)
+    return bool(ctx and ctx.meta.get(_JSON_STDOUT))
+
+
+def emit_json(target: str | None, payload: Any) -> None:
+    """Write ``payload`` as JSON to ``target`` (``-``: stdout; a file: atomically); ``None``: no-op."""
+    if target is None:
+        return
+    text = json.dumps(payload, indent=2, ensure_ascii=False) + "\n"
+    if target == "-":
+        click.echo(text, nl=False)
+        return
+    with atomic_path(target) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def say(message: str = "", **kwargs) -> None:
+    """Human output on stdout (suppressed under ``--json -``)."""
+    if not json_to_stdout():
+        click.echo(message, **kwargs)
+
+
+def stdout_console():
+    """A rich console for tables on stdout (silent under ``--json -``)."""
+    from rich.console import Console
+
+    return Console(quiet=json_to_stdout(), highlight=False)
+
+
+# --------------------------------------------------------------------------------- --junit
+def junit_option(func: F) -> F:
+    """``--junit FILE``: write the results as JUnit XML (param ``junit``)."""
+    return click.option(
+        "--junit",
+        "junit",
+        type=click.Path(dir_okay=False, path_type=Path),
+        metavar="FILE",
+        help="Also write the results as JUnit XML (for CI test reports).",
+    )(func)
+
+
+# ------------------------------------------------------------------------------- --threads
+def _apply_threads(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
+    from pavonine.backend import set_threads
+
+    if value is not None:
+        set_threads(value)
+
+
+def threads_option(func: F) -> F:
+    """``--threads N`` (default ``$PAVONINE_THREADS``, else one per core), applied at once."""
+    return click.option(
+        "--threads",
+        type=click.IntRange(min=1),
+        envvar=THREADS_ENV,
+        show_envvar=True,
+        expose_value=False,
+        callback=_apply_threads,
+        metavar="N",
+        help="Worker threads (Dr.Jit, OpenImageIO, BLAS) [default: one per core].",
+    )(func)
+
+
+# -------------------------------------------------------------------------- display options
+def display_options(func: F) -> F:
+    """``--ocio-config``, ``--display``, ``--view``, ``--exposure`` → param ``display``.
+
+    The checked :class:`pavonine.materials.display.DisplayTransform` is passed as ``display`` and
+    is the current display transform while the command runs. Use :func:`display_overrides` to
+    know which fields the user gave explicitly (``compare`` prefers what a PNG records).
+    """
+    from pavonine.materials.display import PINNED_CONFIG
+
+    @functools.wraps(func)
+    def wrapper(*args, ocio_config, display_name, view, exposure, **kwargs):
+        from pavonine.materials.display import DisplayError, resolve, use_display
+
+        try:
+            transform = resolve(ocio_config, display_name, view, exposure)
+        except DisplayError as exc:
+            raise InputError(exc.field, exc.message) from None
+        with use_display(transform):
+            return func(*args, display=transform, **kwargs)
+
+    options = [
+        click.option(
+            "--ocio-config",
+            envvar="OCIO",
+            show_envvar=True,
+            metavar="CONFIG",
+            help=f"OCIO config file or ocio:// name [default: $OCIO, else {PINNED_CONFIG}].",
+        ),
+        click.option(
+            "--display",
+            "display_name",
+            metavar="NAME",
+            help="OCIO display of the PNGs [default: 'sRGB - Display', or the config's default].",
+        ),
+        click.option(
+            "--view",
+            metavar="NAME",
+            help="OCIO view of the PNGs [default: 'Un-tone-mapped', or the config's default].",
+        ),
+        click.option(
+            "--exposure",
+            type=float,
+            default=0.0,
+            show_default=True,
+            metavar="STOPS",
+            help="Exposure in stops, applied in scene-linear before the view.",
+        ),
+    ]
+    for option in reversed(options):
+        wrapper = option(wrapper)
+    return wrapper  # type: ignore[return-value]
+
+
+def display_overrides() -> dict[str, Any]:
+    """The display fields given on the command line (not defaults, not ``$OCIO``)."""
+    from click.core import ParameterSource
+
+    ctx = click.get_current_context()
+    names = {"ocio_config": "config", "display_name": "display", "view": "view"}
+    names["exposure"] = "exposure"
+    return {
+        field: ctx.params[name]
+        for name, field in names.items()
+        if ctx.get_parameter_source(name) == ParameterSource.COMMANDLINE
+    }
