@@ -48,7 +48,7 @@ class SyncedScene:
     mesh_count: int = 0
     instance_count: int = 0
     feather_materials: int = 0
-    mesh_lights: int = 0  # meshes with MeshLightAPI, translated as area emitters
+    mesh_lights: int = 0  # emitting meshes (MeshLightAPI, emissive materials): area emitters
 
 
 def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
@@ -86,7 +86,7 @@ class StageDelegate:
         self.xforms = TransformCache(time)
         self.table = instancing.InstanceTable()
         self._materials: dict[str, materials.MaterialSpec] = {}
-        self._bsdfs: dict[tuple[str, bool], object] = {}
+        self._bsdfs: dict[tuple, object] = {}
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
 
@@ -187,12 +187,42 @@ class StageDelegate:
                 self.time,
                 self.diag,
                 f"{prim.GetPath()}#{index}",
+                primvars=spec.primvars,
             )
-            built.append((triangles, self._bsdf(spec, double_sided)))
-        emitter = self._mesh_light(prim, sum(t.area() for t, _ in built), world)
-        shapes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
+            binding = spec.binding(prim, self.time)
+            built.append((triangles, self._bsdf(spec, double_sided, binding), spec, binding))
+        light = self._mesh_light(prim, sum(t.area() for t, *_ in built), world)
+        shapes = []
+        for triangles, bsdf, spec, binding in built:
+            emitter = (
+                light
+                if light is not None
+                else self._emission(spec, binding, prim, double_sided, world)
+            )
+            shapes.append(mesh.to_mitsuba_mesh(triangles, bsdf, self._load(emitter)))
         self.scene.mesh_count += len(built)
-        return shapes, [t.bounds() for t, _ in built]
+        return shapes, [t.bounds() for t, *_ in built]
+
+    def _emission(self, spec, binding, prim: Usd.Prim, double_sided: bool, world: bool):
+        """An emissive material's ``area`` emitter for one mesh (see ``shading.spec``)."""
+        where = str(prim.GetPath())
+        entry = spec.emitter_dict(binding, where, self.diag)
+        if entry is None:
+            return None
+        if not world:
+            self.diag.warn(
+                where,
+                "emissive material inside an instance prototype is not supported "
+                "(Mitsuba instances cannot emit); rendered without emission",
+            )
+            return None
+        if double_sided:
+            self.diag.warn(
+                where,
+                "emissive doubleSided mesh: Mitsuba area lights emit from the front side only",
+            )
+        self.scene.mesh_lights += 1
+        return entry
 
     def _mesh_light(self, prim: Usd.Prim, world_area: float, world: bool) -> dict | None:
         """A ``MeshLightAPI`` mesh's Mitsuba ``area`` emitter (UsdLux radiance, ``normalize``)."""
@@ -205,7 +235,7 @@ class StageDelegate:
                 "(Mitsuba instances cannot emit); rendered without emission",
             )
             return None
-        radiance = lights.radiance(prim, self.time)
+        radiance = lights.mesh_light_radiance(prim, self.time, self.diag)
         if UsdLux.LightAPI(prim).GetNormalizeAttr().Get(self.time):
             radiance = radiance / max(world_area, 1e-12)
         self.scene.mesh_lights += 1
@@ -258,29 +288,20 @@ class StageDelegate:
         self, material: UsdShade.Material | None, prim: Usd.Prim
     ) -> materials.MaterialSpec:
         if material is None:
-            return materials.default_material(materials.display_color(prim, self.time))
+            material_key = "__fallback"
+            if material_key not in self._materials:
+                self._materials[material_key] = materials.fallback_material()
+            return self._materials[material_key]
         key = str(material.GetPath())
         if key not in self._materials:
             self._materials[key] = materials.translate_material(material, self.time, self.diag)
         return self._materials[key]
 
-    def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool):
-        import mitsuba as mi
-
-        wrap = double_sided and not spec.two_sided
-        key = (spec.key, wrap)
+    def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool, binding):
+        """The loaded BSDF of a material for one mesh (cached per sidedness and primvar binding)."""
+        key = (spec.key, double_sided and not spec.two_sided, binding)
         if key not in self._bsdfs:
-            bsdf = spec.bsdf
-            if wrap:
-                bsdf = {"type": "twosided", "bsdf": bsdf}
-            try:
-                self._bsdfs[key] = mi.load_dict(bsdf)
-            except Exception as exc:
-                self.diag.warn(
-                    spec.key,
-                    f"Mitsuba rejected the material ({first_line(exc)}); rendering grey diffuse",
-                )
-                self._bsdfs[key] = mi.load_dict(materials.default_material().bsdf)
+            self._bsdfs[key] = materials.load_bsdf(spec, double_sided, binding, spec.key, self.diag)
         return self._bsdfs[key]
 
 

@@ -11,6 +11,7 @@ with one warning naming the prim; an empty mesh is skipped with a warning.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -224,8 +225,13 @@ def build_triangle_mesh(
     time: Usd.TimeCode,
     diag: Diagnostics,
     name: str,
+    primvars: Sequence[str] = (),
 ) -> TriangleMesh:
-    """One material's triangles with positions/normals/uvs/attributes transformed by ``matrix_usd``."""
+    """One material's triangles with positions/normals/uvs/attributes transformed by ``matrix_usd``.
+
+    ``primvars``: primvars the material reads per mesh; the non-constant ones become Mitsuba
+    attributes as authored (see ``shading.primvars.mesh_attributes``).
+    """
     where = str(mesh.GetPath())
     normals = read_normals(mesh, time)
     if normals is None and mesh.GetSubdivisionSchemeAttr().Get(time) != UsdGeom.Tokens.none:
@@ -237,7 +243,15 @@ def build_triangle_mesh(
     extra = {mi_name: read_primvar(mesh, primvar, time) for primvar, mi_name in attributes.items()}
     extra = {k: v for k, v in extra.items() if v is not None}
 
-    varying = [normals, uv, *extra.values()]
+    plain = {n: pv for n in primvars if (pv := read_primvar(mesh, n, time)) is not None}
+    plain = {n: pv for n, pv in plain.items() if pv.interpolation != UsdGeom.Tokens.constant}
+    per_face = UsdGeom.Tokens.uniform
+    varying = [
+        normals,
+        uv,
+        *extra.values(),
+        *(p for p in plain.values() if p.interpolation != per_face),
+    ]
     welded = all(pv is None or pv.interpolation in (*PER_VERTEX, "constant") for pv in varying)
     triangles = topology.triangles[triangle_mask]
     if welded:
@@ -284,6 +298,12 @@ def build_triangle_mesh(
         values = corner_values(primvar, mi_name)
         if values is not None and values.shape[1] == 3:
             out.attributes[mi_name] = transform_directions(values, matrix_usd).astype(np.float32)
+    if plain:
+        from pavonine.render.shading.primvars import mesh_attributes
+
+        out.attributes.update(
+            mesh_attributes(plain, topology, triangle_mask, corner_of_vertex, where, diag)
+        )
     for mi_name in set(attributes.values()) - set(out.attributes):
         # Requested but not authored (e.g. a hand-made feather mesh without barb tangents): the
         # BSDF reads the attribute on every mesh of its material, so supply dp/du instead.
