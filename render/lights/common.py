@@ -94,7 +94,14 @@ def radiance(reader: LightReader) -> np.ndarray:
 def audit(reader: LightReader) -> None:
     """Warn about every authored UsdLux property of the prim that no translator honoured."""
     definition = reader.prim.GetPrimDefinition()
-    for name in sorted(lux_property_names(reader.prim)):
+    names = lux_property_names(reader.prim)
+    for attr in reader.prim.GetAuthoredAttributes():
+        if f"inputs:{attr.GetName()}" in names:  # pre-21.05 UsdLux spelling, read by nothing
+            reader.warn(
+                f"{attr.GetName()} is the old UsdLux name of inputs:{attr.GetName()}; "
+                "USD reads only inputs:…, so it is ignored"
+            )
+    for name in sorted(names):
         if name in reader.used or name in NOT_LIGHTING or name in VIEWPORT_ONLY:
             continue
         prop = reader.prim.GetProperty(name)
