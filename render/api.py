@@ -36,6 +36,7 @@ from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_rende
 __all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
 
 MAX_DEPTH = 8
+INTEGRATOR = "volpath"  # like "path", and shadow rays pass null (mask) surfaces
 
 
 @dataclass
@@ -160,7 +161,7 @@ def render_products(
             os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"
         ) from None
 
-    path_tracer = {"type": "path", "max_depth": MAX_DEPTH}
+    path_tracer = {"type": INTEGRATOR, "max_depth": MAX_DEPTH}
     results = []
     with _progress(stage_path, jobs, spp, progress) as advance:
         for index, job in enumerate(jobs):

@@ -96,7 +96,9 @@ def audit(reader: LightReader) -> None:
     definition = reader.prim.GetPrimDefinition()
     names = lux_property_names(reader.prim)
     for attr in reader.prim.GetAuthoredAttributes():
-        if f"inputs:{attr.GetName()}" in names:  # pre-21.05 UsdLux spelling, read by nothing
+        if (
+            f"inputs:{attr.GetName()}" in names and attr.HasAuthoredValue()
+        ):  # pre-21.05 UsdLux spelling, read by nothing
             reader.warn(
                 f"{attr.GetName()} is the old UsdLux name of inputs:{attr.GetName()}; "
                 "USD reads only inputs:…, so it is ignored"

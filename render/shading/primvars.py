@@ -24,9 +24,12 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
 from pavonine.render.diagnostics import Diagnostics
-from pavonine.render.shading.network import COMPONENTS, Affine, Network, as_mitsuba, coerce
+from pavonine.render.shading.network import COLOR, COMPONENTS, Affine, Network, as_mitsuba, coerce
 
 PLACEHOLDER = "pavonine_primvar"  # the ``type`` of a placeholder node in a material's BSDF dict
+#: Mitsuba upsamples a 3-channel attribute to a spectrum only when its name ends in "color", so
+#: colour consumers read a twin of the attribute with this suffix (the plain one stays as authored)
+COLOR_TWIN = "_color"
 READER_FALLBACKS = {"float": 0.0, "int": 0.0, "float2": (0.0, 0.0)}
 UNSUPPORTED_READERS = ("string", "matrix")
 
@@ -152,7 +155,8 @@ def _resolve_one(node: dict, binding: Binding, where: str, diag: Diagnostics) ->
             where,
             f"primvar {node['primvar']} cannot be remapped per vertex in Mitsuba; read as authored",
         )
-    return {"type": "mesh_attribute", "name": mesh_attribute_name(node["primvar"], interpolation)}
+    name = mesh_attribute_name(node["primvar"], interpolation)
+    return {"type": "mesh_attribute", "name": name + (COLOR_TWIN if kind == COLOR else "")}
 
 
 def mesh_attributes(
@@ -167,7 +171,8 @@ def mesh_attributes(
 
     ``primvars``: name → ``mesh.Primvar``; per-vertex values are taken at each output vertex's
     corner, uniform values at each triangle's polygon. 2-component values are padded to 3 and
-    4-component ones cut to 3 (Mitsuba's attributes have 1 or 3 channels).
+    4-component ones cut to 3 (Mitsuba's attributes have 1 or 3 channels). 3-channel attributes
+    also get their colour twin (``COLOR_TWIN``), which Mitsuba stores as spectral coefficients.
     """
     from pavonine.render.mesh import per_corner
 
@@ -182,12 +187,17 @@ def mesh_attributes(
             if len(values) < topology.face_count:
                 diag.warn(where, f"uniform primvar {name} has too few values; ignored")
                 continue
-            out[mesh_attribute_name(name, primvar.interpolation)] = values[faces].astype(np.float32)
+            _add(out, mesh_attribute_name(name, primvar.interpolation), values[faces])
             continue
         corners = per_corner(
             type(primvar)(values, primvar.interpolation), topology, where, name, diag
         )
         if corners is not None:
-            attribute = mesh_attribute_name(name, primvar.interpolation)
-            out[attribute] = corners[corner_of_vertex].astype(np.float32)
+            _add(out, mesh_attribute_name(name, primvar.interpolation), corners[corner_of_vertex])
     return out
+
+
+def _add(out: dict[str, np.ndarray], name: str, values: np.ndarray) -> None:
+    out[name] = values.astype(np.float32)
+    if values.shape[1] == 3:
+        out[name + COLOR_TWIN] = out[name]
