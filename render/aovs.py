@@ -10,16 +10,23 @@ sourceName                                  Mitsuba AOV         channels
 ==========================================  ==================  ===========================
 color, Ci, C, rgb, rgba, LdrColor, beauty…  the path tracer     R G B (A for 4-channel types)
 a, alpha, A                                 the beauty's alpha  A
-depth, z, Z, distance                       ``depth``           Z (distance along the ray)
+depth, z, Z                                 ``depth``           Z (camera-space depth)
+distance                                    ``depth``           Z (distance to the camera)
 P, position                                 ``position``        X Y Z (world space)
 N, Nn, normal, shadingNormal                ``sh_normal``       X Y Z (world space)
 Ng, geometricNormal                         ``geo_normal``      X Y Z (world space)
-albedo                                      ``albedo``          R G B
+albedo                                      ``albedo``          R G B (white-balanced)
 uv, st                                      ``uv``              U V (Mitsuba's uv: v down)
 primId                                      ``shape_index``     id (Mitsuba shape index)
 elementId                                   ``prim_index``      id (triangle index)
 dPdu, dPdv                                  ``dp_du``/``dp_dv`` X Y Z
 ==========================================  ==================  ===========================
+
+Mitsuba's ``depth`` is measured along the ray from the near clipping plane; it is turned into
+camera-space depth ``t·cos θ + near`` (or distance ``t + near / cos θ``) per pixel, θ the pixel's
+angle to the view axis (pinhole; aperture offsets ignored), 0 where nothing is hit. Mitsuba's
+spectral ``albedo`` is converted to RGB without a white point (white reads (1.21, 0.95, 0.91)); it
+is divided by that white so a white surface reads 1.
 
 ``sourceType`` ``lpe`` is the beauty for ``C.*`` (and ``C.*[<L.>O]``); anything else, ``primvar``
 sources, ``instanceId`` (Mitsuba's instances share their prototype's shapes) and unknown names are
@@ -43,7 +50,7 @@ FOUR_CHANNELS = {"color4f", "float4", "half4", "color4h", "color4d"}
 SOURCES = {
     "depth": "depth",
     "z": "depth",
-    "distance": "depth",
+    "distance": "distance",
     "p": "position",
     "position": "position",
     "n": "sh_normal",
@@ -66,6 +73,7 @@ SOURCES = {
 }
 CHANNELS = {
     "depth": ("Z",),
+    "distance": ("Z",),
     "position": ("X", "Y", "Z"),
     "sh_normal": ("X", "Y", "Z"),
     "geo_normal": ("X", "Y", "Z"),
@@ -97,6 +105,7 @@ class AovPlan:
 
     layers: list[Layer] = field(default_factory=list)
     aovs: list[str] = field(default_factory=list)  # Mitsuba AOV types, in integrator order
+    distances: bool = False  # depth or distance layers: converted from Mitsuba's ray distance
     alpha: bool = False  # the beauty is rendered with alpha (film pixel format rgba)
 
     @property
@@ -117,6 +126,7 @@ class AovPlan:
         for kind in self.aovs:
             starts.setdefault(kind, offset)
             offset += len(CHANNELS[kind])
+        starts["distance"] = starts.get("depth")
         out: dict[str, np.ndarray] = {}
         for layer in self.layers:
             if layer.source == "beauty":
@@ -153,11 +163,84 @@ def plan(product: ProductSpec, diag: Diagnostics) -> AovPlan:
             result.alpha = True
             result.layers.append(Layer(name, (f"{name}.A",), "alpha", var.path))
         else:
-            if source not in result.aovs:
-                result.aovs.append(source)
+            mitsuba = "depth" if source == "distance" else source
+            if mitsuba not in result.aovs:
+                result.aovs.append(mitsuba)
+            result.distances |= mitsuba == "depth"
             channels = tuple(f"{name}.{c}" for c in CHANNELS[source])
             result.layers.append(Layer(name, channels, source, var.path))
     return result
+
+
+def finish(
+    plan: AovPlan,
+    images: dict[str, np.ndarray],
+    cosines: np.ndarray | None,
+    near: float,
+    white: np.ndarray | None,
+) -> None:
+    """Mitsuba's depth → camera depth or distance, and white-balanced albedo (module doc)."""
+    for layer in plan.layers:
+        pixels = images[layer.name]
+        hit = pixels[..., :1] > 0
+        if layer.source == "depth" and cosines is not None:
+            images[layer.name] = np.where(hit, pixels * cosines[..., None] + near, 0.0)
+        elif layer.source == "distance" and cosines is not None:
+            images[layer.name] = np.where(hit, pixels + near / cosines[..., None], 0.0)
+        elif layer.source == "albedo" and white is not None:
+            images[layer.name] = pixels / white
+
+
+def pinhole_cosines(sensor: dict, film_size: tuple[int, int]) -> np.ndarray:
+    """cos θ of each pixel centre's ray to a sensor's view axis (1 for orthographic sensors)."""
+    width, height = film_size
+    if sensor.get("type") == "orthographic":
+        return np.ones((height, width))
+    half = np.tan(np.radians(float(sensor.get("fov", 30.0))) / 2.0)
+    axis = sensor.get("fov_axis", "x")
+    tan_x = (
+        half if axis == "x" or (axis == "smaller" and width <= height) else half * width / height
+    )
+    tan_y = tan_x * height / width
+    x = ((np.arange(width) + 0.5) / width * 2.0 - 1.0) * tan_x
+    y = ((np.arange(height) + 0.5) / height * 2.0 - 1.0) * tan_y
+    return 1.0 / np.sqrt(1.0 + x[None, :] ** 2 + y[:, None] ** 2)
+
+
+_WHITE: dict[str, np.ndarray] = {}
+
+
+def albedo_white() -> np.ndarray:
+    """Mitsuba's ``albedo`` AOV of a white Lambertian surface in the current variant (cached)."""
+    import mitsuba as mi
+
+    variant = mi.variant()
+    if variant not in _WHITE:
+        if "spectral" not in variant:
+            _WHITE[variant] = np.ones(3)
+        else:
+            scene = mi.load_dict(
+                {
+                    "type": "scene",
+                    "card": {"type": "rectangle", "bsdf": {"type": "diffuse", "reflectance": 1.0}},
+                    "sensor": {
+                        "type": "orthographic",
+                        "to_world": mi.ScalarTransform4f()
+                        .translate([0, 0, 1])
+                        .rotate([0, 1, 0], 180),
+                        "film": {
+                            "type": "hdrfilm",
+                            "width": 2,
+                            "height": 2,
+                            "rfilter": {"type": "box"},
+                        },
+                    },
+                }
+            )
+            integrator = mi.load_dict({"type": "aov", "aovs": "white:albedo"})
+            pixels = np.asarray(mi.render(scene, integrator=integrator, spp=4096, seed=7))
+            _WHITE[variant] = pixels.reshape(-1, 3).mean(axis=0)
+    return _WHITE[variant]
 
 
 def _source(name: str, source_type: str, where: str, diag: Diagnostics) -> str | None:

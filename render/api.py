@@ -178,6 +178,7 @@ def render_products(
                 advance,
             )
             images = job.plan.split(image)
+            _finish_aovs(job, images)
             width, height = job.size
             metadata = {
                 "stage": os.fspath(stage_path),
@@ -271,6 +272,21 @@ def _job(
         sensor = camera_translator.framing_camera(bounds, synced.up_axis)
     plan = aov_layers.plan(product, diag)
     return _Job(product, plan, (width, height), film_width, camera_path, sensor)
+
+
+def _finish_aovs(job: _Job, images: dict[str, np.ndarray]) -> None:
+    """Depth from the camera and white-balanced albedo (see :func:`aovs.finish`)."""
+    from pavonine.render.passes import pixel_aspect_resampler
+
+    cosines = None
+    if job.plan.distances:
+        cosines = aov_layers.pinhole_cosines(job.sensor.sensor, (job.film_width, job.size[1]))
+        resample = pixel_aspect_resampler(job.film_width, job.size[0])
+        if resample is not None:
+            cosines = cosines @ resample.T
+    white = aov_layers.albedo_white() if "albedo" in job.plan.aovs else None
+    near = float(job.sensor.sensor.get("near_clip", 0.0))
+    aov_layers.finish(job.plan, images, cosines, near, white)
 
 
 def _sensor_dict(job: _Job) -> dict:

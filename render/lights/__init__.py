@@ -18,7 +18,12 @@ from pxr import Usd, UsdLux
 
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.lights import area, distant, dome, shaping
-from pavonine.render.lights.common import LightReader, audit, cone_solid_angle
+from pavonine.render.lights.common import (
+    LightReader,
+    audit,
+    cone_has_no_effect,
+    cone_solid_angle,
+)
 from pavonine.render.lights.common import radiance as _radiance
 from pavonine.render.lights.distant import default_lights, distant_light
 
@@ -61,7 +66,7 @@ def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -
     reader = LightReader(prim, time, diag)
     L = _radiance(reader)
     reader.honour("inputs:normalize")  # the delegate divides by the mesh's world area
-    _cone_no_effect_on_surfaces(reader)
+    cone_has_no_effect(reader, 90.0)
     audit(reader)
     return L
 
@@ -101,8 +106,3 @@ def translate_light(
         entry = area.cylinder(reader, world_usd)
     audit(reader)
     return entry
-
-
-def _cone_no_effect_on_surfaces(reader: LightReader) -> None:
-    if reader.peek("inputs:shaping:cone:angle", 90.0) >= 90.0:
-        reader.honour("inputs:shaping:cone:angle", "inputs:shaping:cone:softness")

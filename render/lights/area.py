@@ -21,6 +21,7 @@ import numpy as np
 from pavonine.render.lights.common import (
     FLIP_Z,
     LightReader,
+    cone_has_no_effect,
     light_texture,
     radiance,
     rgb,
@@ -36,16 +37,10 @@ def _axis_lengths(world_usd: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.asarray(world_usd, dtype=np.float64)[:3, :3], axis=1)
 
 
-def _cone_no_effect(reader: LightReader, widest: float) -> None:
-    """A cone at least ``widest`` degrees (with any softness) cannot narrow this emitter."""
-    if reader.peek("inputs:shaping:cone:angle", 90.0) >= widest:
-        reader.honour("inputs:shaping:cone:angle", "inputs:shaping:cone:softness")
-
-
 def sphere(reader: LightReader, world_usd: np.ndarray, radius: float) -> dict:
     """A SphereLight with a radius: a Mitsuba ``sphere`` with an area emitter."""
     L = radiance(reader)
-    _cone_no_effect(reader, 180.0)
+    cone_has_no_effect(reader, 180.0)
     r_world = radius * float(np.mean(_axis_lengths(world_usd)))
     if bool(reader.value("inputs:normalize", False)):
         L = L / max(4.0 * math.pi * r_world**2, 1e-12)
@@ -56,7 +51,7 @@ def sphere(reader: LightReader, world_usd: np.ndarray, radius: float) -> dict:
 def rect(reader: LightReader, world_usd: np.ndarray) -> dict:
     """A RectLight: a Mitsuba ``rectangle`` (radiance textured by ``texture:file``)."""
     L = radiance(reader)
-    _cone_no_effect(reader, 90.0)
+    cone_has_no_effect(reader, 90.0)
     w = reader.number("inputs:width", 1.0)
     h = reader.number("inputs:height", 1.0)
     if bool(reader.value("inputs:normalize", False)):
@@ -73,7 +68,7 @@ def rect(reader: LightReader, world_usd: np.ndarray) -> dict:
 def disk(reader: LightReader, world_usd: np.ndarray) -> dict:
     """A DiskLight: a Mitsuba ``disk``."""
     L = radiance(reader)
-    _cone_no_effect(reader, 90.0)
+    cone_has_no_effect(reader, 90.0)
     r = reader.number("inputs:radius", 0.5)
     if bool(reader.value("inputs:normalize", False)):
         axes = _axis_lengths(world_usd)
@@ -85,7 +80,7 @@ def disk(reader: LightReader, world_usd: np.ndarray) -> dict:
 def cylinder(reader: LightReader, world_usd: np.ndarray) -> dict:
     """A CylinderLight along local X: a Mitsuba ``cylinder`` (unit radius and length, along +Z)."""
     L = radiance(reader)
-    _cone_no_effect(reader, 180.0)
+    cone_has_no_effect(reader, 180.0)
     length = reader.number("inputs:length", 1.0)
     r = reader.number("inputs:radius", 0.5)
     if bool(reader.value("treatAsLine", False)):

@@ -42,6 +42,7 @@ class LightReader:
     time: Usd.TimeCode
     diag: Diagnostics
     used: set[str] = field(default_factory=set)
+    moot: dict[str, str] = field(default_factory=dict)  # attribute → why it changes nothing here
 
     @property
     def where(self) -> str:
@@ -74,8 +75,28 @@ class LightReader:
         """Record attributes as honoured without reading them (e.g. no effect by definition)."""
         self.used.update(names)
 
+    def no_effect(self, reason: str, *names: str) -> None:
+        """Attributes that change nothing on this light (UsdLux says so): warned when authored."""
+        for name in names:
+            self.moot.setdefault(name, reason)
+
     def warn(self, message: str) -> None:
         self.diag.warn(self.where, message)
+
+
+def cone_has_no_effect(reader: LightReader, widest: float) -> bool:
+    """True (and the cone honoured) when a ``ShapingAPI`` cone cannot narrow an emitter whose own
+    emission spans ``widest`` degrees off its axis (90 for one-sided, 180 for all-round emitters).
+
+    The cone attenuates from ``angle · (1 − softness)`` on (UsdLux), so it changes nothing when that
+    angle is at least ``widest``.
+    """
+    angle = float(reader.peek("inputs:shaping:cone:angle", 90.0))
+    softness = float(np.clip(reader.peek("inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
+    if angle * (1.0 - softness) >= widest:
+        reader.honour("inputs:shaping:cone:angle", "inputs:shaping:cone:softness")
+        return True
+    return False
 
 
 def radiance(reader: LightReader) -> np.ndarray:

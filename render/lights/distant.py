@@ -3,7 +3,8 @@
 A normalised DistantLight takes ``intensity`` as the illuminance E on a surface facing it; without
 ``normalize`` the radiance is ``L`` over its disc of angular diameter ``angle``, so ``E = L · Ω``,
 ``Ω = 2π(1 − cos(angle/2))`` (solid angle of a cone, sr). ``angle = 0`` is Mitsuba's delta
-``directional``. Shaping (cone, focus) has no effect on a light travelling along its own axis.
+``directional``. Shaping (cone, focus) has no effect on a light travelling along its own axis; an
+authored cone or focus is reported as such.
 """
 
 from __future__ import annotations
@@ -32,8 +33,13 @@ def translate(
     L = radiance(reader)
     normalize = bool(reader.value("inputs:normalize", False))
     angle = reader.number("inputs:angle", 0.53)
-    reader.honour("inputs:shaping:cone:angle", "inputs:shaping:cone:softness")
-    reader.honour("inputs:shaping:focus", "inputs:shaping:focusTint")  # on-axis: factor 1
+    reader.no_effect(
+        "a DistantLight's light travels along its axis, where cones and focus do not attenuate",
+        "inputs:shaping:cone:angle",
+        "inputs:shaping:cone:softness",
+        "inputs:shaping:focus",
+        "inputs:shaping:focusTint",
+    )
     return distant_light(L, normalize, angle, -world_usd[2, :3], scene_center, scene_radius)
 
 

@@ -37,7 +37,7 @@ MIN_SIZE = (3, 4)  # Mitsuba's envmap needs a few texels in each direction (heig
 def translate(reader: LightReader, world_usd: np.ndarray) -> dict:
     """The Mitsuba emitter of a dome light."""
     L = radiance(reader)
-    reader.honour("inputs:normalize")
+    reader.no_effect("dome lights have no size to normalize by (UsdLux)", "inputs:normalize")
     texels = light_texture(reader, "inputs:texture:file")
     if texels is None:
         reader.honour("inputs:texture:format")

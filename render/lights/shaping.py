@@ -10,8 +10,9 @@ between the emission direction and the light's −Z axis,
 Mitsuba's ``spot`` projects a texture over its cone through ``uv = ½ + ½ · tan θ_{x,y} / tan
 θ_cutoff``; that texture carries the whole profile above (the spot's own linear falloff is switched
 off, ``beam_width = cutoff_angle``), so the image is exactly the UsdLux profile, sampled on a
-256² grid. Mitsuba's spot cannot exceed 90°: cones of 90° or more are not narrowed (a cone of
-90°–180° and focus without a cone are warned about), and IES profiles are not supported (warned).
+256² grid (coarser near the axis for cones close to 90°). Mitsuba's spot cannot exceed 90°: a
+cone between 90° and 180° and focus without a cone are warned about, and IES profiles are not
+supported (warned).
 
 Intensity of a point light: a sphere of radiance L and radius r seen from afar has radiant
 intensity ``I = L · π r²``; normalised (L / 4π r²) that is ``L / 4``. Without a radius, I = L.
@@ -22,12 +23,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from pxr import UsdLux
 
-from pavonine.render.lights.common import FLIP_Z, LightReader, bitmap, radiance, rgb, transform
+from pavonine.render.lights.common import (
+    FLIP_Z,
+    LightReader,
+    bitmap,
+    cone_has_no_effect,
+    radiance,
+    rgb,
+    transform,
+)
 from pavonine.render.xform import to_mitsuba
 
 PROFILE_SIZE = 256
-MAX_CUTOFF_DEG = 89.0  # the spot's texture projection goes through tan(cutoff)
+MAX_CUTOFF_DEG = 89.9  # the spot's texture projection goes through tan(cutoff)
 CONE_INPUTS = ("inputs:shaping:cone:angle", "inputs:shaping:cone:softness")
 FOCUS_INPUTS = ("inputs:shaping:focus", "inputs:shaping:focusTint")
 
@@ -43,7 +53,10 @@ def point(reader: LightReader, world_usd: np.ndarray, radius: float) -> dict:
         intensity = L * (math.pi * r_world**2 if r_world > 0 else 1.0)
     angle = float(reader.peek("inputs:shaping:cone:angle", 90.0))
     focus = float(reader.peek("inputs:shaping:focus", 0.0))
-    if angle < 90.0:
+    shaped = reader.prim.HasAPI(UsdLux.ShapingAPI) or any(
+        reader.prim.GetAttribute(name).HasAuthoredValue() for name in CONE_INPUTS
+    )
+    if shaped and angle <= 90.0:
         reader.honour(*CONE_INPUTS, *FOCUS_INPUTS)
         softness = float(np.clip(reader.peek("inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
         tint = np.asarray(reader.peek("inputs:shaping:focusTint", (0.0, 0.0, 0.0)), dtype=float)
@@ -62,11 +75,7 @@ def point(reader: LightReader, world_usd: np.ndarray, radius: float) -> dict:
                 "wrap_mode": "clamp",
             },
         }
-    if (
-        angle >= 180.0
-        or not reader.prim.GetAttribute("inputs:shaping:cone:angle").HasAuthoredValue()
-    ):
-        reader.honour(*CONE_INPUTS)
+    cone_has_no_effect(reader, 180.0)
     if focus > 0.0:
         reader.honour(*FOCUS_INPUTS)
         reader.warn(
