@@ -2,7 +2,7 @@
 
 The stage is translated once by :class:`~pavonine.render.delegate.StageDelegate`; every
 ``RenderProduct`` of its render settings (:mod:`.settings`) gets its own Mitsuba sensor (camera,
-resolution, pixel aspect) in one scene, and is rendered with Mitsuba's ``path`` integrator — inside
+resolution, pixel aspect) in one scene, and is rendered with Mitsuba's ``volpath`` integrator — inside
 an ``aov`` integrator when its ``RenderVar``\\ s ask for AOVs (:mod:`.aovs`) — in the chosen
 spectral variant (``llvm_ad_spectral`` by default), with a box pixel filter so that each pixel is
 the plain mean of its samples, progressively in passes (:mod:`.passes`).
