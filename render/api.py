@@ -72,32 +72,15 @@ class _Job:
 
 
 def render_stage(
-    stage_path: str | os.PathLike,
-    *,
-    spp: int,
-    resolution: tuple[int, int] | None = None,
-    seed: int = 0,
-    camera: str | None = None,
-    time: float | None = None,
-    variant: str | None = None,
-    moments: bool = False,
-    progress: bool = True,
-    product: str | None = None,
+    stage_path: str | os.PathLike, *, product: str | None = None, **options: Any
 ) -> RenderResult:
-    """Render one product of ``stage_path`` (the first, or the ``RenderProduct`` at ``product``)."""
-    return render_products(
-        stage_path,
-        spp=spp,
-        resolution=resolution,
-        seed=seed,
-        camera=camera,
-        time=time,
-        variant=variant,
-        moments=moments,
-        progress=progress,
-        products=[product] if product else None,
-        first_only=product is None,
-    )[0]
+    """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
+
+    ``options`` are :func:`render_products`' (``spp``, ``resolution``, ``seed``, ``camera``,
+    ``time``, ``variant``, ``moments``, ``progress``).
+    """
+    chosen = [product] if product else None
+    return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
 
 
 def render_products(

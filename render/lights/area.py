@@ -39,24 +39,18 @@ def _axis_lengths(world_usd: np.ndarray) -> np.ndarray:
 
 def sphere(reader: LightReader, world_usd: np.ndarray, radius: float) -> dict:
     """A SphereLight with a radius: a Mitsuba ``sphere`` with an area emitter."""
-    L = radiance(reader)
-    cone_has_no_effect(reader, 180.0)
     r_world = radius * float(np.mean(_axis_lengths(world_usd)))
-    if bool(reader.value("inputs:normalize", False)):
-        L = L / max(4.0 * math.pi * r_world**2, 1e-12)
+    L = _radiance(reader, 180.0, 4.0 * math.pi * r_world**2)
     to_world = to_mitsuba(world_usd) @ np.diag([radius, radius, radius, 1.0])
     return {"type": "sphere", "to_world": transform(to_world), "emitter": _area(L)}
 
 
 def rect(reader: LightReader, world_usd: np.ndarray) -> dict:
     """A RectLight: a Mitsuba ``rectangle`` (radiance textured by ``texture:file``)."""
-    L = radiance(reader)
-    cone_has_no_effect(reader, 90.0)
     w = reader.number("inputs:width", 1.0)
     h = reader.number("inputs:height", 1.0)
-    if bool(reader.value("inputs:normalize", False)):
-        area = np.linalg.norm(np.cross(world_usd[0, :3] * w, world_usd[1, :3] * h))
-        L = L / max(area, 1e-12)
+    area = float(np.linalg.norm(np.cross(world_usd[0, :3] * w, world_usd[1, :3] * h)))
+    L = _radiance(reader, 90.0, area)
     emitter = _area(L)
     texels = light_texture(reader, "inputs:texture:file")
     if texels is not None:
@@ -67,27 +61,23 @@ def rect(reader: LightReader, world_usd: np.ndarray) -> dict:
 
 def disk(reader: LightReader, world_usd: np.ndarray) -> dict:
     """A DiskLight: a Mitsuba ``disk``."""
-    L = radiance(reader)
-    cone_has_no_effect(reader, 90.0)
     r = reader.number("inputs:radius", 0.5)
-    if bool(reader.value("inputs:normalize", False)):
-        axes = _axis_lengths(world_usd)
-        L = L / max(math.pi * r * r * axes[0] * axes[1], 1e-12)
+    axes = _axis_lengths(world_usd)
+    L = _radiance(reader, 90.0, math.pi * r * r * axes[0] * axes[1])
     to_world = to_mitsuba(world_usd) @ FLIP_Z @ np.diag([r, r, 1.0, 1.0])
     return {"type": "disk", "to_world": transform(to_world), "emitter": _area(L)}
 
 
 def cylinder(reader: LightReader, world_usd: np.ndarray) -> dict:
     """A CylinderLight along local X: a Mitsuba ``cylinder`` (unit radius and length, along +Z)."""
-    L = radiance(reader)
-    cone_has_no_effect(reader, 180.0)
     length = reader.number("inputs:length", 1.0)
     r = reader.number("inputs:radius", 0.5)
     if bool(reader.value("treatAsLine", False)):
         reader.warn("treatAsLine is not supported; rendered as a cylinder of its radius")
-    if bool(reader.value("inputs:normalize", False)):
-        axes = _axis_lengths(world_usd)
-        L = L / max(2.0 * math.pi * r * math.sqrt(axes[1] * axes[2]) * length * axes[0], 1e-12)
+    axes = _axis_lengths(world_usd)
+    L = _radiance(
+        reader, 180.0, 2.0 * math.pi * r * math.sqrt(axes[1] * axes[2]) * length * axes[0]
+    )
     # Mitsuba's canonical cylinder: radius 1 around +Z, z from 0 to 1 → USD: along X, centred
     local = np.array(
         [[0, 0, length, -length / 2], [r, 0, 0, 0], [0, r, 0, 0], [0, 0, 0, 1]], dtype=np.float64
@@ -97,6 +87,15 @@ def cylinder(reader: LightReader, world_usd: np.ndarray) -> dict:
         "to_world": transform(to_mitsuba(world_usd) @ local),
         "emitter": _area(L),
     }
+
+
+def _radiance(reader: LightReader, widest: float, world_area: float) -> np.ndarray:
+    """The light's radiance, ÷ its world area when ``normalize`` is on; its cone checked."""
+    L = radiance(reader)
+    cone_has_no_effect(reader, widest)
+    if bool(reader.value("inputs:normalize", False)):
+        L = L / max(world_area, 1e-12)
+    return L
 
 
 def _area(L: np.ndarray) -> dict:
