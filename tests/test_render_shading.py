@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
+from pathlib import Path
+
 import numpy as np
 import pytest
 from pxr import Sdf, UsdGeom, UsdShade, UsdUtils
 from render_helpers import (
+    RES,
     bind,
     connect,
     halves,
@@ -21,6 +25,9 @@ from render_helpers import (
     sun,
     texture,
 )
+
+from pavonine.render.api import render_stage
+from pavonine.render.diagnostics import StageWarning
 
 pytestmark = pytest.mark.render
 RED, BLUE = (0.8, 0.05, 0.05), (0.05, 0.05, 0.8)
@@ -309,6 +316,24 @@ def test_displacement_and_occlusion_are_warned(tmp_path):
     mesh = quad(stage)
     material, _ = preview(stage, displacement=0.2, occlusion=0.5)
     bind(mesh, material)
-    warnings = render(stage, spp=1, resolution=(8, 8)).warnings
-    assert any("displacement is not applied" in w for w in warnings)
-    assert any("occlusion is ignored" in w for w in warnings)
+    messages = render(stage, spp=1, resolution=(8, 8)).warnings
+    assert any("displacement is not applied" in w for w in messages)
+    assert any("occlusion is ignored" in w for w in messages)
+
+
+def test_wrongly_typed_inputs_are_warned_by_name_and_the_render_goes_on():
+    stage_path = Path(__file__).parent / "data" / "render" / "wrong_types.usda"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        result = render_stage(stage_path, spp=2, resolution=RES, progress=False)
+    assert np.isfinite(result.rgb).all()
+    for expected in (
+        "/Mat/S: input 'diffuseColor' = 'blue' is not a color value",
+        "/Mat/S: input 'roughness' = 'rough' is not a float value",
+        "/Mat/S: input 'normal' = ",
+        "/Mat/S: input 'opacityThreshold' = 'x' is not a float value",
+        "/L: inputs:intensity = nan is not a finite number",
+        "/L: inputs:color = 'red' is not a colour",
+        "/L: inputs:shaping:cone:angle = 'wide' is not a finite number",
+    ):
+        assert any(w.startswith(expected) for w in result.warnings), expected

@@ -59,9 +59,9 @@ class LightReader:
         value = attr.Get(self.time) if attr else None
         return fallback if value is None else value
 
-    def number(self, name: str, fallback: float) -> float:
-        """A float attribute, honoured; a NaN or wrongly typed value is warned and replaced."""
-        value = self.value(name, fallback)
+    def number(self, name: str, fallback: float, honour: bool = True) -> float:
+        """A float attribute (honoured unless told); a NaN or wrongly typed value is warned."""
+        value = self.value(name, fallback) if honour else self.peek(name, fallback)
         try:
             number = float(value)
         except (TypeError, ValueError):
@@ -70,6 +70,18 @@ class LightReader:
             self.warn(f"{name} = {value!r} is not a finite number; using {fallback}")
             return fallback
         return number
+
+    def colour(self, name: str, fallback: tuple, honour: bool = True) -> np.ndarray:
+        """A colour attribute as 3 floats (honoured unless told); a wrong value is warned."""
+        value = self.value(name, fallback) if honour else self.peek(name, fallback)
+        try:
+            rgb = np.asarray(value, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            rgb = np.array([])
+        if rgb.size != 3 or not np.all(np.isfinite(rgb)):
+            self.warn(f"{name} = {value!r} is not a colour (3 finite numbers); using {fallback}")
+            return np.asarray(fallback, dtype=np.float64)
+        return rgb
 
     def honour(self, *names: str) -> None:
         """Record attributes as honoured without reading them (e.g. no effect by definition)."""
@@ -91,8 +103,10 @@ def cone_has_no_effect(reader: LightReader, widest: float) -> bool:
     The cone attenuates from ``angle · (1 − softness)`` on (UsdLux), so it changes nothing when that
     angle is at least ``widest``.
     """
-    angle = float(reader.peek("inputs:shaping:cone:angle", 90.0))
-    softness = float(np.clip(reader.peek("inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
+    angle = reader.number("inputs:shaping:cone:angle", 90.0, honour=False)
+    softness = float(
+        np.clip(reader.number("inputs:shaping:cone:softness", 0.0, honour=False), 0, 1)
+    )
     if angle * (1.0 - softness) >= widest:
         reader.honour("inputs:shaping:cone:angle", "inputs:shaping:cone:softness")
         return True
@@ -103,7 +117,7 @@ def radiance(reader: LightReader) -> np.ndarray:
     """``intensity · 2^exposure · color · blackbody(T)`` (linear Rec.709), before normalisation."""
     intensity = reader.number("inputs:intensity", 1.0)
     exposure = reader.number("inputs:exposure", 0.0)
-    color = np.asarray(reader.value("inputs:color", (1.0, 1.0, 1.0)), dtype=np.float64)
+    color = reader.colour("inputs:color", (1.0, 1.0, 1.0))
     if bool(reader.value("inputs:enableColorTemperature", False)):
         temperature = reader.number("inputs:colorTemperature", 6500.0)
         color = color * np.asarray(UsdLux.BlackbodyTemperatureAsRgb(temperature), dtype=np.float64)

@@ -51,15 +51,15 @@ def point(reader: LightReader, world_usd: np.ndarray, radius: float) -> dict:
         intensity = L / 4.0
     else:
         intensity = L * (math.pi * r_world**2 if r_world > 0 else 1.0)
-    angle = float(reader.peek("inputs:shaping:cone:angle", 90.0))
-    focus = float(reader.peek("inputs:shaping:focus", 0.0))
+    angle = reader.number("inputs:shaping:cone:angle", 90.0, honour=False)
+    focus = reader.number("inputs:shaping:focus", 0.0, honour=False)
     shaped = reader.prim.HasAPI(UsdLux.ShapingAPI) or any(
         reader.prim.GetAttribute(name).HasAuthoredValue() for name in CONE_INPUTS
     )
     if shaped and angle <= 90.0:
         reader.honour(*CONE_INPUTS, *FOCUS_INPUTS)
-        softness = float(np.clip(reader.peek("inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
-        tint = np.asarray(reader.peek("inputs:shaping:focusTint", (0.0, 0.0, 0.0)), dtype=float)
+        softness = float(np.clip(reader.number("inputs:shaping:cone:softness", 0.0), 0.0, 1.0))
+        tint = reader.colour("inputs:shaping:focusTint", (0.0, 0.0, 0.0))
         cutoff = min(angle, MAX_CUTOFF_DEG)
         frame = _unit_axes(to_mitsuba(world_usd)) @ FLIP_Z  # the spot shines along its +Z
         return {

@@ -93,6 +93,17 @@ class Network:
                 return value
         return fallback
 
+    def setting(self, shader: UsdShade.Shader, name: str, fallback: Any, kind: str = FLOAT) -> Any:
+        """An unconnectable input's constant (a float or a 3-vector); a wrong value is warned."""
+        value = self.constant(shader, name, fallback)
+        if not _numeric(value, kind):
+            self.warn(
+                str(shader.GetPath()),
+                f"input {name!r} = {value!r} is not a {kind} value; using {fallback}",
+            )
+            value = fallback
+        return coerce(value, kind, fallback)
+
     def is_authored(self, shader: UsdShade.Shader, name: str) -> bool:
         """True when the input has a value or a connection that differs from nothing at all."""
         shader_input = shader.GetInput(name)
@@ -119,6 +130,12 @@ class Network:
             value = upstream_fallback(upstream, self, fallback)
         else:
             value = self.constant(shader, name, fallback)
+        if not _numeric(value, kind):
+            self.warn(
+                str(shader.GetPath()),
+                f"input {name!r} = {value!r} is not a {kind} value; using {fallback}",
+            )
+            value = fallback
         return as_mitsuba(affine.apply(coerce(value, kind, fallback)), kind)
 
     def upstream(
@@ -174,6 +191,17 @@ def upstream_fallback(shader: UsdShade.Shader, network: Network, fallback: Any) 
     """A source node's own ``inputs:fallback`` when it has one (texture, primvar reader)."""
     value = network.constant(shader, "fallback", None)
     return fallback if value is None else value
+
+
+def _numeric(value: Any, kind: str) -> bool:
+    """True for a finite number (scalar kinds) or a finite 1-4 vector (colours and vectors)."""
+    if isinstance(value, (str, bytes)):
+        return False
+    try:
+        array = np.atleast_1d(np.asarray(value, dtype=np.float64)).ravel()
+    except (TypeError, ValueError):
+        return False
+    return 1 <= array.size <= 4 and bool(np.all(np.isfinite(array)))
 
 
 def coerce(value: Any, kind: str, fallback: Any) -> Any:

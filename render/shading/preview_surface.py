@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from pxr import UsdShade
 
-from pavonine.render.shading.network import COLOR, FLOAT, VECTOR, Affine, Network, coerce
+from pavonine.render.shading.network import COLOR, FLOAT, VECTOR, Affine, Network
 from pavonine.render.shading.spec import PRESENCE, TRANSPARENT
 from pavonine.render.shading.textures import bitmap_dict
 
@@ -60,7 +60,7 @@ def preview_surface(shader: UsdShade.Shader, net: Network) -> dict[str, Any]:
         "clearcoat_gloss": net.value(shader, "clearcoatRoughness", FLOAT, 0.01, Affine(-1.0, 1.0)),
     }
     ior = _scalar(shader, "ior", 1.5, net)
-    workflow = int(coerce(net.constant(shader, "useSpecularWorkflow", 0), FLOAT, 0.0))
+    workflow = int(net.setting(shader, "useSpecularWorkflow", 0))
     if workflow == 1:
         _specular_workflow(shader, base, bsdf, net)
     else:
@@ -90,7 +90,7 @@ def _scalar(shader: UsdShade.Shader, name: str, fallback: float, net: Network) -
     if net.source(shader.GetInput(name)) is not None:
         net.warn(str(shader.GetPath()), f"{name} cannot be textured in Mitsuba; using {fallback}")
         return fallback
-    return float(coerce(net.constant(shader, name, fallback), FLOAT, fallback))
+    return float(net.setting(shader, name, fallback))
 
 
 def _differs(shader: UsdShade.Shader, name: str, default: Any, net: Network) -> bool:
@@ -152,7 +152,7 @@ def _normal_map(shader: UsdShade.Shader, bsdf: dict, net: Network) -> dict:
     """A ``normalmap`` around the surface when ``normal`` is connected (or not (0, 0, 1))."""
     where = str(shader.GetPath())
     if net.source(shader.GetInput("normal")) is None:
-        normal = coerce(net.constant(shader, "normal", (0.0, 0.0, 1.0)), VECTOR, (0, 0, 1))
+        normal = net.setting(shader, "normal", (0.0, 0.0, 1.0), VECTOR)
         if np.allclose(normal, (0.0, 0.0, 1.0)):
             return bsdf
         texel = (np.asarray(normal, dtype=float) * 0.5 + 0.5).reshape(1, 1, 3)
@@ -195,7 +195,7 @@ def _opacity(shader: UsdShade.Shader, net: Network) -> tuple[Any, str]:
     if mode not in (TRANSPARENT, PRESENCE):
         net.warn(where, f"opacityMode {mode!r} is not transparent or presence; using transparent")
         mode = TRANSPARENT
-    threshold = float(coerce(net.constant(shader, "opacityThreshold", 0.0), FLOAT, 0.0))
+    threshold = float(net.setting(shader, "opacityThreshold", 0.0))
     if net.source(shader.GetInput("opacityThreshold")) is not None:
         net.warn(where, "opacityThreshold cannot be textured; using 0")
         threshold = 0.0
