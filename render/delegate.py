@@ -194,6 +194,12 @@ class StageDelegate:
         light = self._mesh_light(prim, sum(t.area() for t, *_ in built), world)
         shapes = []
         for triangles, bsdf, spec, binding in built:
+            if light is not None and spec.emission is not None:
+                self.diag.warn(
+                    str(prim.GetPath()),
+                    "MeshLightAPI with an emissive material: the material's glow does not tint "
+                    "the light (materialSyncMode); the light's own emission is used",
+                )
             emitter = (
                 light
                 if light is not None
