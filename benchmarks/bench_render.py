@@ -19,10 +19,10 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
-from pavonine.render import materials
 from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.feather_bsdf import PLUGIN_NAME
+from pavonine.render.shading import feather
 
 SCENE = Path(__file__).parents[1] / "assets" / "scenes" / "eye_feather_sun.usda"
 
@@ -43,7 +43,7 @@ def roughconductor_instead_of_feather():
     Only the feather BSDF itself is swapped: the alpha ``mask`` and the displacement ``bumpmap``
     around it stay, so the ratio measures the BSDF and nothing else.
     """
-    original = materials.feather_bsdf
+    original = feather.feather_material
     conductor = {
         "type": "twosided",
         "bsdf": {"type": "roughconductor", "material": "Au", "alpha": 0.2},
@@ -55,11 +55,11 @@ def roughconductor_instead_of_feather():
             spec, key=spec.key + "#roughconductor", bsdf=_swap_innermost(spec.bsdf, conductor)
         )
 
-    materials.feather_bsdf = substitute
+    feather.feather_material = substitute
     try:
         yield
     finally:
-        materials.feather_bsdf = original
+        feather.feather_material = original
 
 
 def timed(resolution: tuple[int, int], spp: int, repeats: int = 3) -> float:
