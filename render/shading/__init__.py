@@ -5,6 +5,8 @@
 * :mod:`.textures` — ``UsdUVTexture`` and ``UsdTransform2d``;
 * :mod:`.primvars` — ``UsdPrimvarReader_*`` and ``displayColor``/``displayOpacity`` per mesh;
 * :mod:`.mitsuba_context` — hdmitsuba's ``outputs:mitsuba:surface`` networks of ``mitsuba_*`` nodes;
+* :mod:`.materialx` — MaterialX ``standard_surface`` / ``open_pbr_surface`` (approximated by
+  ``principled``) and ``image`` / ``tiledimage`` nodes;
 * :mod:`.feather` — ``PavonineFeatherAPI`` materials;
 * :mod:`.spec` — what a mesh receives (:class:`MaterialSpec`), sidedness, opacity and emission.
 
@@ -44,7 +46,7 @@ def translate_material(
     material: UsdShade.Material, time: Usd.TimeCode, diag: Diagnostics
 ) -> MaterialSpec:
     """The :class:`MaterialSpec` of a bound USD material (feather, mitsuba, preview, or grey)."""
-    from pavonine.render.shading import mitsuba_context, preview_surface
+    from pavonine.render.shading import materialx, mitsuba_context, preview_surface
 
     path = str(material.GetPath())
     if is_feather_material(material):
@@ -59,6 +61,8 @@ def translate_material(
         fields: dict = {"bsdf": mitsuba_context.node(shader, net)}
     elif shader_id in PREVIEW_SURFACES:
         fields = preview_surface.preview_surface(shader, net)
+    elif shader_id in materialx.SURFACES:
+        fields = materialx.surface(shader, shader_id, net)
     else:
         diag.warn(
             path,

@@ -7,7 +7,8 @@ attribute* is found with ``UsdShadeInput.GetValueProducingAttributes`` (which wa
 * an authored value (on the input itself or on an interface input) is returned as a constant;
 * a shader output is handed to the translator of that shader's id: ``UsdUVTexture``
   (:mod:`.textures`), ``UsdPrimvarReader_*`` (:mod:`.primvars`), ``mitsuba_*`` nodes
-  (:mod:`.mitsuba_context`); anything else is warned about, naming the input and the shader, and
+  (:mod:`.mitsuba_context`), MaterialX ``ND_image_*``/``ND_tiledimage_*`` (:mod:`.materialx`);
+  anything else is warned about, naming the input and the shader, and
   the input's fallback is used.
 
 Values come back in Mitsuba's terms: a ``float``, an ``rgb`` dict, a texture dict (``bitmap``,
@@ -104,6 +105,18 @@ class Network:
             value = fallback
         return coerce(value, kind, fallback)
 
+    def differs(self, shader: UsdShade.Shader, name: str, default: Any) -> bool:
+        """True when an input is connected or holds a value other than ``default``."""
+        if self.source(shader.GetInput(name)) is not None:
+            return True
+        value = self.constant(shader, name, None)
+        if value is None:
+            return False
+        try:
+            return not np.allclose(np.atleast_1d(np.asarray(value, dtype=float)), default)
+        except (TypeError, ValueError):
+            return value != default
+
     def is_authored(self, shader: UsdShade.Shader, name: str) -> bool:
         """True when the input has a value or a connection that differs from nothing at all."""
         shader_input = shader.GetInput(name)
@@ -142,11 +155,13 @@ class Network:
         self, shader: UsdShade.Shader, output: str, kind: str, affine: Affine, consumer: str
     ) -> Any | None:
         """The Mitsuba value of ``shader.outputs:<output>``; ``None`` (warned) if unsupported."""
-        from pavonine.render.shading import mitsuba_context, primvars, textures
+        from pavonine.render.shading import materialx, mitsuba_context, primvars, textures
 
         shader_id = shader_identifier(shader)
         if shader_id == "UsdUVTexture":
             return textures.uv_texture(shader, output, kind, affine, self)
+        if shader_id.startswith(materialx.IMAGE_PREFIXES):
+            return materialx.image(shader, shader_id, kind, affine, self)
         if shader_id.startswith("UsdPrimvarReader_"):
             return primvars.reader(shader, shader_id, kind, affine, self)
         if shader_id.startswith(mitsuba_context.PREFIX) and affine.identity:

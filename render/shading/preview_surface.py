@@ -66,11 +66,11 @@ def preview_surface(shader: UsdShade.Shader, net: Network) -> dict[str, Any]:
     else:
         bsdf["metallic"] = net.value(shader, "metallic", FLOAT, 0.0)
         bsdf["eta"] = max(ior, MIN_ETA)
-        if _differs(shader, "specularColor", (0.0, 0.0, 0.0), net):
+        if net.differs(shader, "specularColor", (0.0, 0.0, 0.0)):
             net.warn(where, "specularColor is used only with useSpecularWorkflow = 1; ignored")
     bsdf = _normal_map(shader, bsdf, net)
     bsdf = _displacement(shader, bsdf, net)
-    if _differs(shader, "occlusion", 1.0, net):
+    if net.differs(shader, "occlusion", 1.0):
         net.warn(where, "occlusion is ignored: the path tracer computes occlusion from the scene")
     emission = net.value(shader, "emissiveColor", COLOR, (0.0, 0.0, 0.0))
     if isinstance(emission, dict) and emission.get("type") == "rgb" and max(emission["value"]) <= 0:
@@ -93,20 +93,10 @@ def _scalar(shader: UsdShade.Shader, name: str, fallback: float, net: Network) -
     return float(net.setting(shader, name, fallback))
 
 
-def _differs(shader: UsdShade.Shader, name: str, default: Any, net: Network) -> bool:
-    """True when an input is connected or holds a value other than ``default``."""
-    if net.source(shader.GetInput(name)) is not None:
-        return True
-    value = net.constant(shader, name, None)
-    if value is None:
-        return False
-    return not np.allclose(np.atleast_1d(np.asarray(value, dtype=float)), default)
-
-
 def _specular_workflow(shader: UsdShade.Shader, base: Any, bsdf: dict, net: Network) -> None:
     """F0 = specularColor at normal incidence, white at grazing angles (Schlick), metallic unused."""
     where = str(shader.GetPath())
-    if _differs(shader, "metallic", 0.0, net):
+    if net.differs(shader, "metallic", 0.0):
         net.warn(where, "metallic is used only with useSpecularWorkflow = 0; ignored")
     value = net.value(shader, "specularColor", COLOR, (0.0, 0.0, 0.0))
     colour = _mean_colour(value)
@@ -172,7 +162,7 @@ def _displacement(shader: UsdShade.Shader, bsdf: dict, net: Network) -> dict:
     """Displacement is not applied to the geometry: textures shade as a bump map (warned)."""
     where = str(shader.GetPath())
     if net.source(shader.GetInput("displacement")) is None:
-        if _differs(shader, "displacement", 0.0, net):
+        if net.differs(shader, "displacement", 0.0):
             net.warn(where, "displacement is not applied (the surface is rendered undisplaced)")
         return bsdf
     height = net.value(shader, "displacement", FLOAT, 0.0)

@@ -70,7 +70,7 @@ def uv_texture(
     scale = np.resize(np.asarray(net.constant(shader, "scale", (1, 1, 1, 1)), dtype=float), 4)
     bias = np.resize(np.asarray(net.constant(shader, "bias", (0, 0, 0, 0)), dtype=float), 4)
     values = texels * scale + bias  # UsdUVTexture: texel · scale + bias, per channel
-    values = affine.apply(_fit_channels(values[..., list(channels)], kind))
+    values = affine.apply(fit_channels(values[..., list(channels)], kind))
     uv = _st_source(shader, net)
     if uv is None:
         st = net.constant(shader, "st", None)
@@ -107,7 +107,7 @@ def _fit(values: np.ndarray, kind: str) -> np.ndarray:
     return values[:1] if COMPONENTS[kind] == 1 else np.resize(values, 3)
 
 
-def _fit_channels(values: np.ndarray, kind: str) -> np.ndarray:
+def fit_channels(values: np.ndarray, kind: str) -> np.ndarray:
     """H×W×C → H×W×1 (first channel) or H×W×3 (one channel repeated) as ``kind`` needs."""
     if COMPONENTS[kind] == 1:
         return values[..., :1]
@@ -131,7 +131,6 @@ def _texel_at(values: np.ndarray, to_uv: np.ndarray, st: np.ndarray) -> np.ndarr
 def _image(shader: UsdShade.Shader, net: Network) -> tuple[np.ndarray, np.ndarray, str] | None:
     """(H×W×4 linear RGBA texels, st → atlas-st matrix, Mitsuba wrap mode), or ``None`` (warned)."""
     where = str(shader.GetPath())
-    file_input = shader.GetInput("file")
     asset = net.constant(shader, "file", None)
     if not isinstance(asset, Sdf.AssetPath) or not asset.path:
         net.warn(where, "UsdUVTexture has no inputs:file; using its fallback")
@@ -140,29 +139,44 @@ def _image(shader: UsdShade.Shader, net: Network) -> tuple[np.ndarray, np.ndarra
     if space not in ("auto", "raw", "sRGB"):
         net.warn(where, f"sourceColorSpace {space!r} is not raw, sRGB or auto; using auto")
         space = "auto"
+    image = load_image(shader.GetInput("file"), asset, space, where, net)
+    if image is None:
+        return None
+    texels, to_uv, metadata_wrap = image
+    return bordered(texels, to_uv, _wrap_mode(shader, metadata_wrap, net), np.zeros(4))
+
+
+def load_image(
+    file_input: UsdShade.Input, asset: Sdf.AssetPath, space: str, where: str, net: Network
+) -> tuple[np.ndarray, np.ndarray, str | None] | None:
+    """(H×W×4 texels, st → atlas-st matrix, the file's wrap metadata) of a texture node's file
+    (``<UDIM>`` tiles stitched), decoded as ``space`` says; ``None`` (warned) if none is read."""
     if UDIM_TOKEN in asset.path:
         tiles = _udim_tiles(file_input, asset.path)
         if not tiles:
             net.warn(where, f"no UDIM tiles found for {asset.path!r}; using its fallback")
             return None
-        image = _udim_atlas(tiles, space, where, net)
-    else:
-        resolved = asset.resolvedPath
-        if not resolved:
-            net.warn(where, f"texture {asset.path!r} not found; using its fallback")
-            return None
-        image = _decoded(resolved, space, where, net)
-    if image is None:
+        return _udim_atlas(tiles, space, where, net)
+    resolved = asset.resolvedPath
+    if not resolved:
+        net.warn(where, f"texture {asset.path!r} not found; using its fallback")
         return None
-    texels, to_uv, metadata_wrap = image
-    wrap = _wrap_mode(shader, metadata_wrap, net)
-    if wrap == "black":  # a black border of one texel, clamped: outside the image reads black
-        h, w = texels.shape[:2]
-        texels = np.pad(texels, ((1, 1), (1, 1), (0, 0)))
-        border = np.array([[w / (w + 2), 0, 1 / (w + 2)], [0, h / (h + 2), 1 / (h + 2)], [0, 0, 1]])
-        to_uv = border @ to_uv
-        wrap = "clamp"
-    return texels, to_uv, wrap
+    return _decoded(resolved, space, where, net)
+
+
+def bordered(
+    texels: np.ndarray, to_uv: np.ndarray, wrap: str, outside: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """``black`` (UsdUVTexture) and ``constant`` (MaterialX) wraps: a one-texel border of
+    ``outside`` (RGBA), clamped, so that the image reads ``outside`` beyond its edges."""
+    if wrap not in ("black", "constant"):
+        return texels, to_uv, wrap
+    h, w = texels.shape[:2]
+    padded = np.empty((h + 2, w + 2, texels.shape[2]))
+    padded[...] = np.resize(outside, texels.shape[2])
+    padded[1:-1, 1:-1] = texels
+    border = np.array([[w / (w + 2), 0, 1 / (w + 2)], [0, h / (h + 2), 1 / (h + 2)], [0, 0, 1]])
+    return padded, border @ to_uv, "clamp"
 
 
 def _decoded(
