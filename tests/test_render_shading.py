@@ -337,3 +337,26 @@ def test_wrongly_typed_inputs_are_warned_by_name_and_the_render_goes_on():
         "/L: inputs:shaping:cone:angle = 'wide' is not a finite number",
     ):
         assert any(w.startswith(expected) for w in result.warnings), expected
+
+
+def test_mitsuba_bitmap_reads_files_mitsuba_cannot_through_openimageio(tmp_path):
+    """Mitsuba has no TIFF (nor CMYK JPEG) reader; the file is read with OpenImageIO instead."""
+    stage = new_stage(tmp_path / "tiff.usda")
+    sun(stage)
+    mesh = quad(stage)
+    material = UsdShade.Material.Define(stage, "/Looks/T")
+    diffuse = UsdShade.Shader.Define(stage, "/Looks/T/Diffuse")
+    diffuse.CreateIdAttr("mitsuba_diffuse")
+    bitmap = UsdShade.Shader.Define(stage, "/Looks/T/Bitmap")
+    bitmap.CreateIdAttr("mitsuba_bitmap")
+    tiff = image(tmp_path / "halves.tif", halves(RED, BLUE))
+    bitmap.CreateInput("filename", Sdf.ValueTypeNames.Asset).Set(tiff)
+    diffuse.CreateInput("reflectance", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        bitmap.ConnectableAPI(), "out"
+    )
+    material.CreateSurfaceOutput("mitsuba").ConnectToSource(diffuse.ConnectableAPI(), "surface")
+    bind(mesh, material)
+    result = render(stage)
+    assert result.warnings == []
+    left, right = left_right(result.rgb)
+    assert left[0] > 3 * left[2] and right[2] > 3 * right[0]

@@ -10,7 +10,8 @@ google/hdmitsuba registers every Mitsuba plugin it knows as an Sdr node ``mitsub
   ``UsdUVTexture`` or ``UsdPrimvarReader_*`` it takes that texture (:mod:`.network`);
 * values convert by type: colours and 3-vectors → ``rgb``, float4 → ``rgb`` of its first three,
   matrices → transforms (USD's row-vector matrices transposed), assets → resolved local files
-  (``mitsuba_bitmap``'s ``filename`` through ``Ar``, so ``.usdz`` members work).
+  (``mitsuba_bitmap``'s ``filename`` through ``Ar``, so ``.usdz`` members work; a file Mitsuba's
+  own readers reject, such as a CMYK JPEG or a TIFF, is read with OpenImageIO instead).
 
 Mitsuba itself checks the parameter names and types when the material is loaded; a node it rejects
 makes the material grey with a warning naming Mitsuba's reason.
@@ -49,10 +50,35 @@ def node(shader: UsdShade.Shader, net: Network) -> dict:
         converted = _convert(value, shader_input.GetTypeName(), where, name, net)
         if converted is not None:
             out[name] = converted
-    if plugin == "bitmap" and "filename" not in out:
-        net.warn(where, "mitsuba_bitmap has no readable filename; using grey")
-        return {"type": "rgb", "value": [MISSING_TEXTURE_GREY] * 3}
+    if plugin == "bitmap":
+        bitmap = _bitmap(out.pop("filename", None), bool(out.get("raw", False)), where, net)
+        if bitmap is None:
+            net.warn(where, "mitsuba_bitmap has no readable filename; using grey")
+            return {"type": "rgb", "value": [MISSING_TEXTURE_GREY] * 3}
+        out["bitmap"] = bitmap
     return out
+
+
+def _bitmap(path: str | None, raw: bool, where: str, net: Network) -> Any:
+    """A ``mitsuba_bitmap``'s file as an ``mi.Bitmap``: read by Mitsuba as hdmitsuba would, or,
+    for a file Mitsuba cannot read (a CMYK JPEG, a TIFF), by OpenImageIO (decoded to linear
+    unless ``raw``, as Mitsuba decodes 8-bit files)."""
+    import mitsuba as mi
+
+    from pavonine.render.shading.textures import TextureError, read_texels
+
+    if path is None:
+        return None
+    try:
+        return mi.Bitmap(path)
+    except Exception:  # Mitsuba's readers: EXR, HDR, PFM, PPM, BMP, TGA, JPEG (RGB/grey), PNG
+        pass
+    try:
+        rgba, _ = read_texels(path, "raw" if raw else "auto")
+    except TextureError as exc:
+        net.warn(where, f"{exc}")
+        return None
+    return mi.Bitmap(np.ascontiguousarray(rgba[..., :3], dtype=np.float32))
 
 
 def _kind(shader_input: UsdShade.Input) -> str:
