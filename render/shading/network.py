@@ -96,14 +96,18 @@ class Network:
 
     def setting(self, shader: UsdShade.Shader, name: str, fallback: Any, kind: str = FLOAT) -> Any:
         """An unconnectable input's constant (a float or a 3-vector); a wrong value is warned."""
-        value = self.constant(shader, name, fallback)
-        if not _numeric(value, kind):
-            self.warn(
-                str(shader.GetPath()),
-                f"input {name!r} = {value!r} is not a {kind} value; using {fallback}",
-            )
-            value = fallback
+        value = self._checked(shader, name, self.constant(shader, name, fallback), kind, fallback)
         return coerce(value, kind, fallback)
+
+    def _checked(self, shader: UsdShade.Shader, name: str, value: Any, kind: str, fallback: Any):
+        """``value`` when it is a ``kind`` value, else ``fallback`` (warned, naming the input)."""
+        if _numeric(value, kind):
+            return value
+        self.warn(
+            str(shader.GetPath()),
+            f"input {name!r} = {value!r} is not a {kind} value; using {fallback}",
+        )
+        return fallback
 
     def differs(self, shader: UsdShade.Shader, name: str, default: Any) -> bool:
         """True when an input is connected or holds a value other than ``default``."""
@@ -143,12 +147,7 @@ class Network:
             value = upstream_fallback(upstream, self, fallback)
         else:
             value = self.constant(shader, name, fallback)
-        if not _numeric(value, kind):
-            self.warn(
-                str(shader.GetPath()),
-                f"input {name!r} = {value!r} is not a {kind} value; using {fallback}",
-            )
-            value = fallback
+        value = self._checked(shader, name, value, kind, fallback)
         return as_mitsuba(affine.apply(coerce(value, kind, fallback)), kind)
 
     def upstream(
