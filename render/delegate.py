@@ -268,14 +268,7 @@ class StageDelegate:
         kind, control_points = built
         material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
         spec = self._material(material if material else None, prim)
-        for name in spec.primvars:
-            primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
-            if primvar and primvar.HasValue() and primvar.GetInterpolation() != "constant":
-                self.diag.warn(
-                    str(prim.GetPath()),
-                    f"{primvar.GetInterpolation()} primvar {name}: Mitsuba curves carry no per-vertex "
-                    "attributes; its reader's fallback is used",
-                )
+        curves.warn_varying_primvars(prim, spec.primvars, self.diag)
         binding = spec.binding(prim, self.time, {})  # constant primvars only
         try:
             shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True, binding))

@@ -374,6 +374,37 @@ def test_a_primvar_reader_gets_its_attribute_and_the_mesh_stays_welded():
     assert np.allclose(np.array(params["vertex_wear"]), index)
 
 
+def test_varying_primvars_read_on_curves_are_warned():
+    """Mitsuba curves carry no attributes: a per-vertex displayColor (read by the no-material
+    fallback) is warned and the fallback colour used; a constant one is the curves' colour."""
+    stage = Usd.Stage.CreateInMemory()
+    curve = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    curve.CreateTypeAttr("linear")
+    curve.CreateCurveVertexCountsAttr([2])
+    curve.CreatePointsAttr([(0, 0, 0), (1, 0, 0)])
+    curve.CreateWidthsAttr([0.1])
+    curve.SetWidthsInterpolation("constant")
+    colour = curve.CreateDisplayColorPrimvar("vertex")
+    colour.Set([(1, 0, 0), (0, 0, 1)])
+
+    def synced_curve():
+        scene, diag = quiet(lambda d: StageDelegate(stage, Usd.TimeCode.Default(), d).sync())
+        (shape,) = scene.shapes.values()
+        return str(shape), diag.messages
+
+    varying, messages = synced_curve()
+    assert messages == [
+        "/Hair: primvars:displayColor: non-constant primvars on curves are not supported "
+        "(Mitsuba curves carry none); the reader's fallback is used"
+    ]
+    colour.SetInterpolation("constant")
+    colour.Set([(1, 0, 0)])
+    red, messages = synced_curve()
+    assert messages == [] and red != varying
+    colour.GetAttr().Clear()
+    assert synced_curve() == (varying, [])  # the fallback: as if no displayColor were authored
+
+
 def test_sidedness_wrappers_follow_double_sided_and_leave_transmission_alone():
     """singleSided → front only, doubleSided → twosided; a transmissive surface (glass from the
     ``mitsuba`` context) and a BSDF that shades both sides itself (the feather) are never wrapped."""
