@@ -21,10 +21,10 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
-from pavonine.render import materials
 from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.feather_bsdf import PLUGIN_NAME
+from pavonine.render.shading import feather
 
 SCENE = Path(__file__).parents[1] / "assets" / "scenes" / "eye_feather_sun.usda"
 
@@ -41,7 +41,7 @@ def _swap_innermost(bsdf: dict, replacement: dict) -> dict:
 @contextmanager
 def feather_in_mode(interference: str):
     """Render the feather BSDF in another interference mode (same material otherwise)."""
-    original = materials.feather_bsdf
+    original = feather.feather_material
 
     def substitute(material, time_code, diag):
         spec = original(material, time_code, diag)
@@ -49,11 +49,11 @@ def feather_in_mode(interference: str):
             spec, key=f"{spec.key}#{interference}", bsdf=_set_innermost(spec.bsdf, interference)
         )
 
-    materials.feather_bsdf = substitute
+    feather.feather_material = substitute
     try:
         yield
     finally:
-        materials.feather_bsdf = original
+        feather.feather_material = original
 
 
 def _set_innermost(bsdf: dict, interference: str) -> dict:
@@ -71,7 +71,7 @@ def roughconductor_instead_of_feather():
     Only the feather BSDF itself is swapped: the alpha ``mask`` and the displacement ``bumpmap``
     around it stay, so the ratio measures the BSDF and nothing else.
     """
-    original = materials.feather_bsdf
+    original = feather.feather_material
     conductor = {
         "type": "twosided",
         "bsdf": {"type": "roughconductor", "material": "Au", "alpha": 0.2},
@@ -83,11 +83,11 @@ def roughconductor_instead_of_feather():
             spec, key=spec.key + "#roughconductor", bsdf=_swap_innermost(spec.bsdf, conductor)
         )
 
-    materials.feather_bsdf = substitute
+    feather.feather_material = substitute
     try:
         yield
     finally:
-        materials.feather_bsdf = original
+        feather.feather_material = original
 
 
 def _render(resolution: tuple[int, int], spp: int) -> float:
@@ -131,10 +131,10 @@ def main() -> None:
         (512, 512),
         64,
     )
-    feather, paper, conductor = best.values()
+    authored, paper, conductor = best.values()
     print(
-        f"512x512 @ 64 spp: feather as authored {feather:.2f} s, in the paper mode {paper:.2f} s, "
-        f"roughconductor {conductor:.2f} s; ratio {feather / conductor:.2f} as authored, "
+        f"512x512 @ 64 spp: feather as authored {authored:.2f} s, in the paper mode {paper:.2f} s, "
+        f"roughconductor {conductor:.2f} s; ratio {authored / conductor:.2f} as authored, "
         f"{paper / conductor:.2f} paper mode (target <= 1.25)"
     )
     if not args.quick:

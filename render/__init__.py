@@ -1,10 +1,12 @@
 """Pavonine's reference renderer: a Hydra-style scene delegate from USD stages to Mitsuba 3.
 
-One translator module per USD prim kind (``mesh``, ``shapes`` for implicit prims, ``subdivision``,
-``skel``, ``curves``, ``instancing``, ``camera``, ``lights``, ``materials``, ``settings``; ``primvars``,
-``attributes`` and ``facing`` serve them), a ``delegate`` that walks the stage and hands each prim to
-its translator, and ``api.render_stage`` that renders the result progressively. Nothing here imports
-Mitsuba at module import time except through :func:`pavonine.backend.select_variant`.
+One translator per USD prim kind: geometry (``mesh``, ``shapes`` for implicit prims,
+``subdivision``, ``skel``, ``curves``, ``instancing``; ``primvars``, ``attributes`` and ``facing``
+serve them), ``camera``, the ``lights`` and ``shading`` subpackages (``materials`` is the
+delegate's entry into the latter), and ``settings``/``aovs``/``passes`` for UsdRender products. A
+``delegate`` walks the stage and hands each prim to its translator, and ``api.render_stage`` /
+``api.render_products`` render the result progressively. Nothing here imports Mitsuba at module
+import time except through :func:`pavonine.backend.select_variant`.
 """
 
 from __future__ import annotations

@@ -1,13 +1,14 @@
-"""``render_stage``: a USD stage to a scene-linear spectral image, progressively, in passes.
+"""``render_stage`` / ``render_products``: a USD stage to scene-linear spectral images.
 
-The stage is translated by :class:`~pavonine.render.delegate.StageDelegate`, rendered with
-Mitsuba's ``path`` integrator in the chosen spectral variant (``llvm_ad_spectral`` by default),
-with a box pixel filter so that each pixel is the plain mean of its samples. Passes use seeds
-derived from ``seed`` and are averaged; the same seed gives the same image.
+The stage is translated once by :class:`~pavonine.render.delegate.StageDelegate`; every
+``RenderProduct`` of its render settings (:mod:`.settings`) gets its own Mitsuba sensor (camera,
+resolution, pixel aspect) in one scene, and is rendered with Mitsuba's ``volpath`` integrator — inside
+an ``aov`` integrator when its ``RenderVar``\\ s ask for AOVs (:mod:`.aovs`) — in the chosen
+spectral variant (``llvm_ad_spectral`` by default), with a box pixel filter so that each pixel is
+the plain mean of its samples, progressively in passes (:mod:`.passes`).
 
-With ``moments=True`` the image is rendered in at least min(spp, 16) passes and the per-pixel
-variance of the final estimate is ``s² / P`` with ``s²`` the unbiased variance of the P pass
-means (in linear Rec.709, so exact for the RGB that is reported).
+:func:`render_stage` renders one product (the first, or the one named) and returns its
+:class:`RenderResult`; :func:`render_products` renders them all.
 """
 
 from __future__ import annotations
@@ -23,32 +24,66 @@ import numpy as np
 
 from pavonine.backend import select_variant
 from pavonine.pipeline.errors import InputError
+from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
 from pavonine.render import instance_primvars, lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
-from pavonine.render.settings import DEFAULT_RESOLUTION, read_render_settings
+from pavonine.render.passes import render_passes
+from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
 
-__all__ = ["RenderResult", "render_stage", "write_exr", "write_png"]
+__all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
 
-LANES_PER_PASS = 1 << 22  # samples in flight per pass (memory bound of the LLVM wavefront)
-MIN_MOMENT_PASSES = 16
 MAX_DEPTH = 8
-SEED_STRIDE = 65537
+INTEGRATOR = "volpath"  # like "path", and shadow rays pass null (mask) surfaces
 
 
 @dataclass
 class RenderResult:
-    """A finished render."""
+    """A finished render of one product."""
 
-    rgb: np.ndarray  # H×W×3 float32, scene-linear Rec.709 (sRGB primaries, D65)
+    rgb: np.ndarray  # H×W×3 float32, scene-linear Rec.709 (sRGB primaries, D65): the beauty
     variance: np.ndarray | None  # H×W×3 variance of each pixel's estimate (``moments=True``)
     metadata: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
+    layers: list[aov_layers.Layer] = field(default_factory=list)  # the product's EXR, in order
+    images: dict[str, np.ndarray] = field(default_factory=dict)  # layer name → H×W×C pixels
+    product: ProductSpec = field(default_factory=ProductSpec)
+
+    @property
+    def has_beauty(self) -> bool:
+        """True when the product's file holds the beauty image (so a display PNG makes sense)."""
+        return any(layer.source == "beauty" for layer in self.layers)
+
+    def exr_layers(self) -> list[tuple[tuple[str, ...], np.ndarray]]:
+        """(channel names, H×W×C pixels) of every layer, in the product's order."""
+        return [(layer.channels, self.images[layer.name]) for layer in self.layers]
+
+
+@dataclass
+class _Job:
+    product: ProductSpec
+    plan: aov_layers.AovPlan
+    size: tuple[int, int]
+    film_width: int
+    camera: str | None
+    sensor: camera_translator.Sensor
 
 
 def render_stage(
+    stage_path: str | os.PathLike, *, product: str | None = None, **options: Any
+) -> RenderResult:
+    """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
+
+    ``options`` are :func:`render_products`' (``spp``, ``resolution``, ``seed``, ``camera``,
+    ``time``, ``variant``, ``moments``, ``progress``).
+    """
+    chosen = [product] if product else None
+    return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
+
+
+def render_products(
     stage_path: str | os.PathLike,
     *,
     spp: int,
@@ -59,8 +94,14 @@ def render_stage(
     variant: str | None = None,
     moments: bool = False,
     progress: bool = True,
-) -> RenderResult:
-    """Render ``stage_path`` with ``spp`` samples per pixel; see the module docstring."""
+    products: list[str] | None = None,
+    first_only: bool = False,
+) -> list[RenderResult]:
+    """Render every product of the stage's render settings (or the ones at ``products``).
+
+    ``resolution`` and ``camera`` override every product's; a stage without settings renders one
+    beauty image. Warnings are shared by all results.
+    """
     if spp < 1:
         raise InputError("spp", f"must be at least 1, got {spp}")
     if moments and spp < 2:
@@ -78,60 +119,24 @@ def render_stage(
     delegate = StageDelegate(stage, time_code, diag)
     synced = delegate.sync()
     settings = read_render_settings(stage, diag)
-    width, height = resolution or settings.resolution or DEFAULT_RESOLUTION
-    film_width = max(1, round(width * settings.pixel_aspect))  # Mitsuba's pixels are square
-
-    camera_path = camera or settings.camera
-    if camera_path is not None and camera_path not in synced.cameras:
-        known = ", ".join(sorted(synced.cameras)) or "none"
-        where = "--camera" if camera else f"{settings.path}.camera"
-        raise InputError(
-            where, f"no visible camera at {camera_path} (cameras in the stage: {known})"
-        )
-    if camera_path is None and synced.cameras:
-        camera_path = sorted(synced.cameras)[0]
+    chosen = choose_products(settings.products, products, first_only)
     if synced.bounds is None:
         diag.warn(str(stage_path), "the stage has no renderable geometry")
-    if camera_path is not None:
-        prim = synced.cameras[camera_path]
-        try:
-            sensor = camera_translator.translate_camera(
-                prim,
-                delegate.xforms.world(prim),
-                time_code,
-                (width, height),
-                settings.pixel_aspect,
-                settings.conform,
-                diag,
-            )
-        except ValueError as exc:
-            raise InputError(camera_path, str(exc).split(": ", 1)[-1]) from None
-    else:
-        bounds = synced.bounds or (np.full(3, -1.0), np.full(3, 1.0))
-        sensor = camera_translator.framing_camera(bounds, synced.up_axis)
+    jobs = [
+        _job(p, delegate, synced, camera, resolution, settings.path, time_code, diag)
+        for p in chosen
+    ]
     emitters = dict(synced.emitters)
     if not emitters and not synced.mesh_lights:
         up = np.eye(3)[2 if synced.up_axis == "Z" else 1]
         center, radius = delegate.bounding_sphere()
-        emitters = lights.default_lights(sensor.to_world, up, center, radius)
+        emitters = lights.default_lights(jobs[0].sensor.to_world, up, center, radius)
 
-    scene_dict: dict[str, Any] = {
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": MAX_DEPTH},
-        "sensor": {
-            **sensor.sensor,
-            "film": {
-                "type": "hdrfilm",
-                "width": int(film_width),
-                "height": int(height),
-                "pixel_format": "rgb",
-                "rfilter": {"type": "box"},
-            },
-            "sampler": {"type": "independent"},
-        },
-    }
+    scene_dict: dict[str, Any] = {"type": "scene"}
+    for index, job in enumerate(jobs):
+        scene_dict[f"sensor_{index}"] = _sensor_dict(job)
     scene_dict.update(scene_objects(synced.shapes, emitters))
-    gc.collect()  # see _render_pass
+    gc.collect()  # see passes.render_pass
     try:
         scene = mi.load_dict(scene_dict)
     except Exception as exc:
@@ -140,82 +145,198 @@ def render_stage(
         ) from None
     instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
 
-    spp_pass = _samples_per_pass(spp, film_width * height, moments)
-    passes = spp // spp_pass
-    resample = _pixel_aspect_resampler(film_width, width)
-    total = np.zeros((height, width, 3), dtype=np.float64)
-    total_sq = np.zeros_like(total) if moments else None
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    columns = (
-        TextColumn(f"render {os.path.basename(os.fspath(stage_path))} {width}×{height}"),
-        BarColumn(),
-        TextColumn("{task.completed}/{task.total} spp"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-    )
-    with Progress(
-        *columns, console=Console(stderr=True), disable=not progress, transient=False
-    ) as bar:
-        task = bar.add_task("render", total=spp)
-        for index in range(passes):
-            pass_seed = (seed * SEED_STRIDE + index) & 0xFFFFFFFF
-            image = _render_pass(mi, scene, spp_pass, pass_seed)
-            if resample is not None:
-                image = np.einsum("jk,ikc->ijc", resample, image)
-            total += image
-            if total_sq is not None:
-                total_sq += image * image
-            bar.update(task, advance=spp_pass)
+    path_tracer = {"type": INTEGRATOR, "max_depth": MAX_DEPTH}
+    results = []
+    with _progress(stage_path, jobs, spp, progress) as advance:
+        for index, job in enumerate(jobs):
+            integrator = mi.load_dict(job.plan.integrator(path_tracer))
+            image, variance, passes = render_passes(
+                scene,
+                index,
+                integrator,
+                spp,
+                seed,
+                (job.film_width, job.size[1]),
+                job.size[0],
+                moments,
+                advance,
+            )
+            images = job.plan.split(image)
+            _finish_aovs(job, images)
+            width, height = job.size
+            metadata = {
+                "stage": os.fspath(stage_path),
+                "variant": backend.variant,
+                "spp": int(spp),
+                "seed": int(seed),
+                "resolution": [int(width), int(height)],
+                "camera": job.camera or "(framing camera)",
+                "time": _time_label(time_code),
+                "passes": int(passes),
+                "colorspace": "lin_rec709_scene",
+                "versions": _versions(),
+            }
+            if job.product.path:
+                metadata["product"] = job.product.path
+                metadata["productName"] = job.product.product_name
+                metadata["layers"] = {ly.name or "beauty": ly.var or "" for ly in job.plan.layers}
+            results.append(
+                RenderResult(
+                    rgb=np.ascontiguousarray(image[..., :3]),
+                    variance=variance,
+                    metadata=metadata,
+                    layers=job.plan.layers,
+                    images=images,
+                    product=job.product,
+                )
+            )
     dr.sync_thread()
-    rgb = (total / passes).astype(np.float32)
-    variance = None
-    if total_sq is not None:
-        mean = total / passes
-        sample_var = np.maximum(total_sq / passes - mean * mean, 0.0) * passes / (passes - 1)
-        variance = (sample_var / passes).astype(np.float32)
+    seconds = round(_time.perf_counter() - started, 3)
+    for result in results:
+        result.metadata["seconds"] = seconds
+        result.warnings = list(diag.messages)
+    return results
 
-    metadata = {
-        "stage": os.fspath(stage_path),
-        "variant": backend.variant,
-        "spp": int(spp),
-        "seed": int(seed),
-        "resolution": [int(width), int(height)],
-        "camera": camera_path or "(framing camera)",
-        "time": "default"
-        if time_code.IsDefault()
-        else ("earliest" if time_code.IsEarliestTime() else float(time_code.GetValue())),
-        "passes": int(passes),
-        "seconds": round(_time.perf_counter() - started, 3),
-        "colorspace": "lin_rec709_scene",
-        "versions": _versions(),
+
+def choose_products(
+    products: list[ProductSpec], wanted: list[str] | None, first_only: bool
+) -> list[ProductSpec]:
+    """The products named by ``wanted`` (prim paths, or prim names that name one product), in
+    that order; an :class:`InputError` naming one that is not there. Else all, or the first."""
+    if not wanted:
+        return products[:1] if first_only else products
+    by_path = {p.path: p for p in products if p.path}
+    by_name: dict[str, list[ProductSpec]] = {}
+    for p in by_path.values():
+        by_name.setdefault(p.path.rsplit("/", 1)[-1], []).append(p)
+    chosen = []
+    for name in wanted:
+        found = by_path.get(name)
+        if found is None and len(by_name.get(name, [])) == 1:
+            found = by_name[name][0]
+        if found is None:
+            known = ", ".join(by_path) or "none"
+            raise InputError("--product", f"no RenderProduct at {name} (products: {known})")
+        if found not in chosen:
+            chosen.append(found)
+    return chosen
+
+
+def _job(
+    product: ProductSpec,
+    delegate: StageDelegate,
+    synced,
+    camera: str | None,
+    resolution: tuple[int, int] | None,
+    settings_path: str | None,
+    time_code,
+    diag: Diagnostics,
+) -> _Job:
+    """The sensor and layers of one product."""
+    width, height = resolution or product.resolution or DEFAULT_RESOLUTION
+    film_width = max(1, round(width * product.pixel_aspect))  # Mitsuba's pixels are square
+    camera_path = camera or product.camera
+    if camera_path is not None and camera_path not in synced.cameras:
+        known = ", ".join(sorted(synced.cameras)) or "none"
+        where = "--camera" if camera else f"{product.path or settings_path}.camera"
+        raise InputError(
+            where, f"no visible camera at {camera_path} (cameras in the stage: {known})"
+        )
+    if camera_path is None and synced.cameras:
+        camera_path = sorted(synced.cameras)[0]
+    if camera_path is not None:
+        prim = synced.cameras[camera_path]
+        try:
+            sensor = camera_translator.translate_camera(
+                prim,
+                delegate.xforms.world(prim),
+                time_code,
+                (width, height),
+                product.pixel_aspect,
+                product.conform,
+                diag,
+            )
+        except ValueError as exc:
+            raise InputError(camera_path, str(exc).split(": ", 1)[-1]) from None
+        if product.disable_dof and sensor.sensor["type"] == "thinlens":
+            sensor.sensor["type"] = "perspective"
+            del sensor.sensor["aperture_radius"], sensor.sensor["focus_distance"]
+    else:
+        bounds = synced.bounds or (np.full(3, -1.0), np.full(3, 1.0))
+        sensor = camera_translator.framing_camera(bounds, synced.up_axis)
+    plan = aov_layers.plan(product, diag)
+    return _Job(product, plan, (width, height), film_width, camera_path, sensor)
+
+
+def _finish_aovs(job: _Job, images: dict[str, np.ndarray]) -> None:
+    """Depth from the camera and white-balanced albedo (see :func:`aovs.finish`)."""
+    from pavonine.render.passes import pixel_aspect_resampler
+
+    cosines = None
+    if job.plan.distances:
+        cosines = aov_layers.pinhole_cosines(job.sensor.sensor, (job.film_width, job.size[1]))
+        resample = pixel_aspect_resampler(job.film_width, job.size[0])
+        if resample is not None:
+            cosines = cosines @ resample.T
+    white = aov_layers.albedo_white() if "albedo" in job.plan.aovs else None
+    near = float(job.sensor.sensor.get("near_clip", 0.0))
+    aov_layers.finish(job.plan, images, cosines, near, white)
+
+
+def _sensor_dict(job: _Job) -> dict:
+    return {
+        **job.sensor.sensor,
+        "film": {
+            "type": "hdrfilm",
+            "width": int(job.film_width),
+            "height": int(job.size[1]),
+            "pixel_format": "rgba" if job.plan.alpha else "rgb",
+            "rfilter": {"type": "box"},
+        },
+        "sampler": {"type": "independent"},
     }
-    return RenderResult(rgb=rgb, variance=variance, metadata=metadata, warnings=list(diag.messages))
 
 
-def _render_pass(mi, scene, spp: int, seed: int) -> np.ndarray:
-    """One ``mi.render`` pass as H×W×3 float64, with Python's cyclic garbage collector paused.
+class _progress:
+    """A rich progress bar over every product's samples (on stderr; hidden when disabled)."""
 
-    Dr.Jit traces every registered BSDF instance when it records a virtual call; a Python-defined
-    BSDF (the feather) of an earlier, unreachable scene freed by a collector run *during* that
-    tracing leaves a dangling pointer and Mitsuba segfaults. :func:`render_stage` collects before
-    building the scene, and no collection runs while a pass is traced.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        image = mi.render(scene, spp=spp, seed=seed)
-    finally:
-        if enabled:
-            gc.enable()
-    return np.asarray(image, dtype=np.float64)[..., :3]
+    def __init__(self, stage_path, jobs: list[_Job], spp: int, enabled: bool):
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        sizes = ", ".join(f"{j.size[0]}×{j.size[1]}" for j in jobs)
+        label = f"render {os.path.basename(os.fspath(stage_path))} {sizes}"
+        self.bar = Progress(
+            TextColumn(label),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total} spp"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            disable=not enabled,
+            transient=False,
+        )
+        self.total = spp * len(jobs)
+
+    def __enter__(self):
+        self.bar.__enter__()
+        task = self.bar.add_task("render", total=self.total)
+        return lambda n: self.bar.update(task, advance=n)
+
+    def __exit__(self, *exc):
+        return self.bar.__exit__(*exc)
+
+
+def _time_label(time_code) -> Any:
+    if time_code.IsDefault():
+        return "default"
+    return "earliest" if time_code.IsEarliestTime() else float(time_code.GetValue())
 
 
 def _select(variant: str | None):
@@ -225,25 +346,6 @@ def _select(variant: str | None):
         raise InputError(
             "--variant", f"cannot use Mitsuba variant {variant!r}: {first_line(exc)}"
         ) from None
-
-
-def _samples_per_pass(spp: int, pixels: int, moments: bool) -> int:
-    """Largest divisor of ``spp`` within the lane budget (and giving enough passes for moments)."""
-    limit = max(1, LANES_PER_PASS // max(pixels, 1))
-    if moments:
-        limit = min(limit, max(1, spp // MIN_MOMENT_PASSES))
-    return max(d for d in range(1, min(spp, limit) + 1) if spp % d == 0)
-
-
-def _pixel_aspect_resampler(film_width: int, width: int) -> np.ndarray | None:
-    """Box-resampling matrix (width × film_width) from square film pixels to wide/narrow pixels."""
-    if film_width == width:
-        return None
-    edges = np.linspace(0.0, film_width, width + 1)
-    lo, hi = edges[:-1, None], edges[1:, None]
-    k = np.arange(film_width)[None, :]
-    overlap = np.clip(np.minimum(hi, k + 1) - np.maximum(lo, k), 0.0, None)
-    return overlap / overlap.sum(axis=1, keepdims=True)
 
 
 def _versions() -> dict[str, str]:

@@ -23,9 +23,10 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Sequence
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdShade
+from pxr import Usd, UsdGeom
 
 from pavonine.render import attributes
 from pavonine.render.diagnostics import Diagnostics
@@ -60,15 +61,6 @@ def curve_control_points(
     radii = _radii(curves, counts, kind, basis, wrap, time, diag)
     if curves.GetNormalsAttr().HasAuthoredValue():
         diag.warn(where, "normals (oriented ribbons) are not supported; rendered as round tubes")
-    read = shaded_primvars(prim)
-    for primvar in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithValues():
-        name = str(primvar.GetPrimvarName())
-        if primvar.GetInterpolation() != "constant" and name in read:
-            diag.warn(
-                where,
-                f"{primvar.GetName()}: non-constant primvars on curves are not supported "
-                "(Mitsuba curves carry none); ignored",
-            )
     scale = abs(np.linalg.det(matrix_usd[:3, :3])) ** (1.0 / 3.0)
     world = transform_points(points, matrix_usd)
     out: list[np.ndarray] = []
@@ -87,20 +79,19 @@ def curve_control_points(
     return ("linearcurve" if kind == "linear" else "bsplinecurve"), out
 
 
-def shaded_primvars(prim: Usd.Prim) -> set[str]:
-    """Primvars the prim's shading could read: displayColor/displayOpacity, and the ``varname`` of
-    every ``UsdPrimvarReader_*`` in its bound material."""
-    names = {"displayColor", "displayOpacity"}
-    material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
-    if material:
-        for node in Usd.PrimRange(material.GetPrim()):
-            shader = UsdShade.Shader(node)
-            shader_id = shader.GetIdAttr().Get() if shader else None
-            if shader_id and str(shader_id).startswith("UsdPrimvarReader"):
-                varname = shader.GetInput("varname")
-                if varname and varname.Get() is not None:
-                    names.add(str(varname.Get()))
-    return names
+def warn_varying_primvars(prim: Usd.Prim, read: Sequence[str], diag: Diagnostics) -> None:
+    """Warn about each primvar in ``read`` (those the bound material reads: ``MaterialSpec.primvars``)
+    that is not constant on the curves: Mitsuba curves carry no attributes, so the material's
+    reader uses its fallback there."""
+    api = UsdGeom.PrimvarsAPI(prim)
+    for name in read:
+        primvar = api.GetPrimvar(name)
+        if primvar and primvar.HasValue() and primvar.GetInterpolation() != "constant":
+            diag.warn(
+                str(prim.GetPath()),
+                f"{primvar.GetName()}: non-constant primvars on curves are not supported "
+                "(Mitsuba curves carry none); the reader's fallback is used",
+            )
 
 
 def _radii(curves, counts, kind, basis, wrap, time, diag) -> np.ndarray:

@@ -18,7 +18,6 @@ from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 from pavonine.pipeline.errors import InputError
 from pavonine.render import (
     curves,
-    facing,
     instancing,
     lights,
     materials,
@@ -61,7 +60,7 @@ class SyncedScene:
     mesh_count: int = 0
     instance_count: int = 0
     feather_materials: int = 0
-    mesh_lights: int = 0  # meshes with MeshLightAPI, translated as area emitters
+    mesh_lights: int = 0  # emitting meshes (MeshLightAPI, emissive materials): area emitters
 
 
 def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
@@ -99,7 +98,7 @@ class StageDelegate:
         self.xforms = TransformCache(time)
         self.table = instancing.InstanceTable()
         self._materials: dict[str, materials.MaterialSpec] = {}
-        self._bsdfs: dict[tuple[str, bool], object] = {}
+        self._bsdfs: dict[tuple, object] = {}
         self.feather_bsdfs: list = []  # the pavonine_feather objects (per-instance primvars)
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
@@ -221,13 +220,49 @@ class StageDelegate:
                 attributes,
                 self.diag,
                 f"{prim.GetPath()}#{index}",
-                all_primvars=not spec.is_feather,  # the feather BSDF reads its own attributes only
+                primvars=spec.primvars,
             )
-            built.append((triangles, self._bsdf(spec, surface.double_sided)))
-        emitter = self._mesh_light(prim, sum(t.area() for t, _ in built), world)
-        meshes = [mesh.to_mitsuba_mesh(t, bsdf, self._load(emitter)) for t, bsdf in built]
+            binding = spec.binding(prim, self.time, triangles.attributes)
+            bsdf = self._bsdf(spec, surface.double_sided, binding)
+            built.append((triangles, bsdf, spec, binding))
+        light = self._mesh_light(prim, sum(t.area() for t, *_ in built), world)
+        meshes = []
+        for triangles, bsdf, spec, binding in built:
+            if light is not None and spec.emission is not None:
+                self.diag.warn(
+                    str(prim.GetPath()),
+                    "MeshLightAPI with an emissive material: the material's glow does not tint "
+                    "the light (materialSyncMode); the light's own emission is used",
+                )
+            emitter = (
+                light
+                if light is not None
+                else self._emission(spec, binding, prim, surface.double_sided, world)
+            )
+            meshes.append(mesh.to_mitsuba_mesh(triangles, bsdf, self._load(emitter)))
         self.scene.mesh_count += len(built)
-        return meshes, [t.bounds() for t, _ in built]
+        return meshes, [t.bounds() for t, *_ in built]
+
+    def _emission(self, spec, binding, prim: Usd.Prim, double_sided: bool, world: bool):
+        """An emissive material's ``area`` emitter for one mesh (see ``shading.spec``)."""
+        where = str(prim.GetPath())
+        entry = spec.emitter_dict(binding, where, self.diag)
+        if entry is None:
+            return None
+        if not world:
+            self.diag.warn(
+                where,
+                "emissive material inside an instance prototype is not supported "
+                "(Mitsuba instances cannot emit); rendered without emission",
+            )
+            return None
+        if double_sided:
+            self.diag.warn(
+                where,
+                "emissive doubleSided mesh: Mitsuba area lights emit from the front side only",
+            )
+        self.scene.mesh_lights += 1
+        return entry
 
     def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
         """A ``BasisCurves`` prim as one Mitsuba curve shape with its bound material."""
@@ -237,8 +272,10 @@ class StageDelegate:
         kind, control_points = built
         material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
         spec = self._material(material if material else None, prim)
+        curves.warn_varying_primvars(prim, spec.primvars, self.diag)
+        binding = spec.binding(prim, self.time, {})  # constant primvars only
         try:
-            shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True))
+            shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True, binding))
         except Exception as exc:
             self.diag.warn(str(prim.GetPath()), f"Mitsuba rejected the curves ({first_line(exc)})")
             return [], []
@@ -255,7 +292,7 @@ class StageDelegate:
                 "(Mitsuba instances cannot emit); rendered without emission",
             )
             return None
-        radiance = lights.radiance(prim, self.time)
+        radiance = lights.mesh_light_radiance(prim, self.time, self.diag)
         if UsdLux.LightAPI(prim).GetNormalizeAttr().Get(self.time):
             radiance = radiance / max(world_area, 1e-12)
         self.scene.mesh_lights += 1
@@ -315,49 +352,23 @@ class StageDelegate:
         self, material: UsdShade.Material | None, prim: Usd.Prim
     ) -> materials.MaterialSpec:
         if material is None:
-            return materials.default_material(materials.display_color(prim, self.time))
+            material_key = "__fallback"
+            if material_key not in self._materials:
+                self._materials[material_key] = materials.fallback_material()
+            return self._materials[material_key]
         key = str(material.GetPath())
         if key not in self._materials:
             self._materials[key] = materials.translate_material(material, self.time, self.diag)
         return self._materials[key]
 
-    def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool):
-        import mitsuba as mi
-
-        # doubleSided: both sides shade alike; singleSided: back faces culled (render/facing.py)
-        wrap = "both" if double_sided else "front"
-        if spec.two_sided:
-            wrap = "self"  # the BSDF already shades both sides as it should (the feather)
-        key = (spec.key, wrap)
+    def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool, binding):
+        """The loaded BSDF of a material for one mesh (cached per sidedness and primvar binding)."""
+        key = (spec.key, double_sided and not spec.two_sided, binding)
         if key not in self._bsdfs:
-            bsdf = spec.bsdf
-            if wrap == "both":
-                bsdf = two_sided(bsdf)
-            elif wrap == "front":
-                bsdf = facing.cull_back_faces(bsdf)
-            try:
-                if spec.is_feather:
-                    from pavonine.render.feather_bsdf import load_with_feathers
-
-                    self._bsdfs[key], feathers = load_with_feathers(bsdf)
-                    self.feather_bsdfs.extend(feathers)
-                else:
-                    self._bsdfs[key] = mi.load_dict(bsdf)
-            except Exception as exc:
-                self.diag.warn(
-                    spec.key,
-                    f"Mitsuba rejected the material ({first_line(exc)}); rendering grey diffuse",
-                )
-                self._bsdfs[key] = mi.load_dict(materials.default_material().bsdf)
+            self._bsdfs[key] = materials.load_bsdf(
+                spec, double_sided, binding, spec.key, self.diag, feathers=self.feather_bsdfs
+            )
         return self._bsdfs[key]
-
-
-def two_sided(bsdf: dict) -> dict:
-    """``bsdf`` shading both sides: Mitsuba's ``twosided`` refuses a ``mask`` (it transmits), so
-    a mask keeps its place outside and the BSDF inside it is made two-sided."""
-    if bsdf.get("type") == "mask":
-        return {**bsdf, "bsdf": two_sided(bsdf["bsdf"])}
-    return {"type": "twosided", "bsdf": bsdf}
 
 
 def usd_error_message(exc: object) -> str:

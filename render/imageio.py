@@ -21,7 +21,8 @@ import json
 import os
 import re
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,14 +36,33 @@ REC709_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
 
 
 def write_exr(
-    path: str | os.PathLike, rgb: np.ndarray, metadata: Mapping[str, Any] | None = None
+    path: str | os.PathLike,
+    rgb: np.ndarray,
+    metadata: Mapping[str, Any] | None = None,
+    *,
+    layers: Sequence[tuple[Sequence[str], np.ndarray]] | None = None,
 ) -> None:
-    """Write H×W×3 scene-linear Rec.709 ``rgb`` as a float EXR with colour-space metadata."""
+    """Write H×W×3 scene-linear Rec.709 ``rgb`` as a float EXR with colour-space metadata.
+
+    ``layers``: (channel names, H×W×C pixels) written instead of ``rgb``, in order — a multi-layer
+    EXR (``R``, ``G``, ``B``, then e.g. ``albedo.R``, ``depth.Z``...).
+    """
     import OpenImageIO as oiio
 
-    pixels = _check_rgb(rgb)
-    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, oiio.FLOAT)
-    spec.channelnames = ("R", "G", "B")
+    if layers is None:
+        layers = [(("R", "G", "B"), _check_rgb(rgb))]
+    names = [name for channels, _ in layers for name in channels]
+    planes = [np.asarray(pixels, dtype=np.float32) for _, pixels in layers]
+    for (channels, _), plane in zip(layers, planes, strict=True):
+        if (
+            plane.ndim != 3
+            or plane.shape[2] != len(channels)
+            or plane.shape[:2] != planes[0].shape[:2]
+        ):
+            raise ValueError(f"layer {channels} has shape {plane.shape}")
+    pixels = np.ascontiguousarray(np.concatenate(planes, axis=2))
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.FLOAT)
+    spec.channelnames = tuple(names)
     spec.attribute("oiio:ColorSpace", EXR_COLORSPACE)
     spec.attribute("chromaticities", oiio.TypeDesc("float[8]"), REC709_CHROMATICITIES)
     spec.attribute("compression", "zip")
@@ -139,14 +159,45 @@ def write_render(
     *,
     png_path: str | os.PathLike | None = None,
     display: DisplayTransform | None = None,
+    layers: Sequence[tuple[Sequence[str], np.ndarray]] | None = None,
 ) -> None:
     """Write a render's EXR and (optionally) its display PNG: both appear, or neither does."""
+    write_renders([RenderFiles(exr_path, rgb, metadata, png_path, layers)], display)
+
+
+@dataclass
+class RenderFiles:
+    """One image's files: its EXR (``layers``, else ``rgb``), optionally the beauty's display PNG
+    and the beauty's per-pixel variance (an EXR of its own)."""
+
+    exr_path: str | os.PathLike
+    rgb: np.ndarray
+    metadata: Mapping[str, Any] | None = None
+    png_path: str | os.PathLike | None = None
+    layers: Sequence[tuple[Sequence[str], np.ndarray]] | None = None
+    variance_path: str | os.PathLike | None = None
+    variance: np.ndarray | None = None
+
+
+def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | None = None) -> None:
+    """Write several images' files: all of them appear, or none does. PNGs go through
+    ``display`` (default: the current display transform)."""
     with contextlib.ExitStack() as stack:
-        exr_tmp = stack.enter_context(atomic_path(exr_path))
-        png_tmp = stack.enter_context(atomic_path(png_path)) if png_path is not None else None
-        write_exr(exr_tmp, rgb, metadata)
-        if png_tmp is not None:
-            write_png(png_tmp, rgb, display)
+        temporaries = []
+        for out in outputs:
+            exr_tmp = stack.enter_context(atomic_path(out.exr_path))
+            png_tmp = stack.enter_context(atomic_path(out.png_path)) if out.png_path else None
+            var_tmp = (
+                stack.enter_context(atomic_path(out.variance_path)) if out.variance_path else None
+            )
+            temporaries.append((out, exr_tmp, png_tmp, var_tmp))
+        for out, exr_tmp, png_tmp, var_tmp in temporaries:
+            write_exr(exr_tmp, out.rgb, out.metadata, layers=out.layers)
+            if png_tmp is not None:
+                write_png(png_tmp, out.rgb, display)
+            if var_tmp is not None:
+                quantity = {"quantity": "variance of the mean (scene-linear units squared)"}
+                write_exr(var_tmp, out.variance, {**(out.metadata or {}), **quantity})
 
 
 def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:

@@ -4,9 +4,11 @@ A gprim becomes a :class:`Surface`: validated polygons (:class:`Topology`), norm
 numeric primvar (:mod:`pavonine.render.primvars`). Implicit prims (:mod:`pavonine.render.shapes`),
 subdivision (:mod:`pavonine.render.subdivision`) and skinning (:mod:`pavonine.render.skel`) make or
 change surfaces; this module turns one into ``mi.Mesh`` objects: polygons as fans, split by
-``GeomSubset`` material bindings, one mesh per material. Every non-constant primvar becomes a
-mesh attribute named by :func:`mesh_attribute_name`. When all per-vertex data is ``vertex`` or
-``varying`` the mesh keeps its shared vertices; otherwise corners are unwelded.
+``GeomSubset`` material bindings, one mesh per material. Each non-constant primvar the material
+reads becomes a mesh attribute named by :func:`mesh_attribute_name` (with a colour twin when it
+has 3 channels). When all per-vertex data built (normals, texture coordinates, those attributes)
+is ``vertex``, ``varying`` or ``uniform`` the mesh keeps its shared vertices; otherwise corners are
+unwelded.
 
 Bad data renders what it can: attributes of the wrong type are ignored with a warning naming the
 prim and the attribute (:mod:`pavonine.render.attributes`); faces that use non-finite points or
@@ -15,6 +17,7 @@ out-of-range indices are dropped with one warning; an empty mesh is skipped with
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,8 +26,10 @@ from pxr import Usd, UsdGeom, UsdShade
 from pavonine.render import attributes
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.primvars import (
+    COLOR_TWIN,
     PER_VERTEX,
     Primvar,
+    attribute_values,
     mesh_attribute_name,
     per_corner,
     read_primvars,
@@ -286,15 +291,18 @@ def build_triangle_mesh(
     feather_attributes: dict[str, str],
     diag: Diagnostics,
     name: str,
-    all_primvars: bool = True,
+    primvars: Sequence[str] = (),
 ) -> TriangleMesh:
     """One material's triangles with positions/normals/uvs/attributes transformed by ``matrix_usd``.
 
-    Every non-constant primvar becomes the attribute :func:`mesh_attribute_name` names, with its
-    values as authored (object space); ``feather_attributes`` (primvar → Mitsuba name) are the
-    feather BSDF's direction attributes, transformed with the mesh and renormalised. With
-    ``all_primvars`` false (a material that reads no primvar attribute: the feather BSDF) only
-    those are built, so that the mesh keeps its shared vertices.
+    ``primvars`` are the primvars the material reads per mesh (``MaterialSpec.primvars``: its
+    ``UsdPrimvarReader``\\ s, ``displayColor``/``displayOpacity`` for the no-material fallback).
+    Each non-constant one among them becomes the attribute :func:`mesh_attribute_name` names,
+    with its values as authored (object space, refined with the surface), 1 or 3 channels
+    (:func:`attribute_values`); a 3-channel one also gets its colour twin (:data:`COLOR_TWIN`).
+    Primvars nobody reads are not built, so a mesh keeps its shared vertices unless a face-varying
+    primvar is read. ``feather_attributes`` (primvar → Mitsuba name) are the feather BSDF's
+    direction attributes, transformed with the mesh and renormalised.
     """
     topology, where = surface.topology, surface.where
     normals = surface.normals
@@ -304,10 +312,11 @@ def build_triangle_mesh(
     if uv is None and uv_primvar != "st":
         diag.warn(where, f"primvar {uv_primvar} not found; using st for texture coordinates")
         uv = surface.primvars.get("st")
-    primvars = surface.primvars if all_primvars else {}
-    per_vertex = {
-        n: pv for n, pv in primvars.items() if pv.interpolation not in ("constant", "uniform")
+    read = {n.removeprefix("primvars:") for n in primvars}
+    attribute_primvars = {
+        n: pv for n, pv in surface.primvars.items() if n in read and pv.interpolation != "constant"
     }
+    per_vertex = {n: pv for n, pv in attribute_primvars.items() if pv.interpolation != "uniform"}
     per_vertex.update({n: surface.primvars[n] for n in feather_attributes if n in surface.primvars})
     corner_data = [normals, uv, *per_vertex.values()]
     welded = all(pv is None or pv.interpolation in (*PER_VERTEX, "constant") for pv in corner_data)
@@ -361,10 +370,8 @@ def build_triangle_mesh(
         if t is not None and t.shape[1] >= 2:
             # USD's st has v up; Mitsuba's bitmap rows start at the top (as its OBJ/PLY loaders do).
             out.texcoords = np.stack([t[:, 0], 1.0 - t[:, 1]], axis=1).astype(np.float32)
-    for primvar_name, primvar in primvars.items():
+    for primvar_name, primvar in attribute_primvars.items():
         attribute = mesh_attribute_name(primvar_name, primvar.interpolation)
-        if attribute is None:
-            continue
         if primvar.interpolation == "uniform":
             if len(primvar.values) < topology.face_count:
                 diag.warn(
@@ -378,7 +385,9 @@ def build_triangle_mesh(
             values = corner_values(primvar, primvar_name)
             if values is None:
                 continue
-        out.attributes[attribute] = values.astype(np.float32)
+        out.attributes[attribute] = attribute_values(values)
+        if out.attributes[attribute].shape[1] == 3:
+            out.attributes[attribute + COLOR_TWIN] = out.attributes[attribute]
     for primvar_name, mi_name in feather_attributes.items():
         primvar = surface.primvars.get(primvar_name)
         values = None if primvar is None else corner_values(primvar, primvar_name)

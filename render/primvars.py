@@ -6,7 +6,11 @@ interpolation. The contract with the shading side (:func:`mesh_attribute_name`):
 ``vertex``, ``varying`` or ``faceVarying`` interpolation reaches the Mitsuba mesh as the vertex
 attribute ``vertex_<name>``, one with ``uniform`` interpolation as the face attribute
 ``face_<name>`` (``:`` in the name becomes ``_``); ``constant`` primvars are not attributes (the
-shading side reads them from USD).
+shading side reads them from USD). Attributes are built for the primvars a material reads
+(``MaterialSpec.primvars``), with 1 or 3 channels (:func:`attribute_values`); a 3-channel one also
+gets a *colour twin* named ``<attribute>_color`` (:data:`COLOR_TWIN`), because Mitsuba upsamples
+an RGB attribute to a spectrum only when its name ends in ``color``: colour inputs read the twin,
+data inputs (vectors) the attribute as authored.
 
 Anything that cannot be used warns once, naming the prim and the primvar: non-numeric types, an
 ``elementSize`` above 1, out-of-range indices, too few values for the interpolation.
@@ -23,6 +27,8 @@ from pavonine.render.attributes import authored_type
 from pavonine.render.diagnostics import Diagnostics
 
 PER_VERTEX = ("vertex", "varying")
+#: suffix of a 3-channel attribute's twin that Mitsuba stores as spectral coefficients
+COLOR_TWIN = "_color"
 INTERPOLATIONS = ("constant", "uniform", "vertex", "varying", "faceVarying")
 #: primvar namespaces consumed by other translators (UsdSkel's joint influences)
 RESERVED = ("skel:",)
@@ -75,6 +81,20 @@ def mesh_attribute_name(primvar_name: str, interpolation: str) -> str | None:
     if interpolation in (*PER_VERTEX, "faceVarying"):
         return f"vertex_{name}"
     raise ValueError(f"unknown primvar interpolation {interpolation!r}")
+
+
+def attribute_values(values: np.ndarray) -> np.ndarray:
+    """(N, k) primvar values as a Mitsuba attribute's float32 (N, 1) or (N, 3).
+
+    Mitsuba's ``mesh_attribute`` texture evaluates 1- or 3-channel attributes: 2 components are
+    padded with 0 (a ``float2`` read as a ``float3``), 4 or more cut to the first 3.
+    """
+    values = np.asarray(values, dtype=np.float64).reshape(len(values), -1)
+    if values.shape[1] == 2:
+        values = np.pad(values, ((0, 0), (0, 1)))
+    elif values.shape[1] > 3:
+        values = values[:, :3]
+    return values.astype(np.float32)
 
 
 def as_matrix(values: object) -> np.ndarray | None:

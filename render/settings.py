@@ -1,20 +1,49 @@
-"""``UsdRender.Settings`` / ``RenderProduct`` → resolution, camera, pixel aspect, conform policy.
+"""``UsdRender`` settings → what to render: one :class:`ProductSpec` per ``RenderProduct``.
 
 The stage's ``renderSettingsPrimPath`` metadata names the settings prim; without it the first
-``RenderSettings`` prim is used. A ``RenderProduct``'s authored values override its settings'
-(UsdRender's inheritance of ``RenderSettingsBase``). Command-line values override both.
+``RenderSettings`` prim is used. Every product in its ``products`` relationship is rendered, each
+with its own camera, resolution, pixel aspect ratio, conform policy and ``orderedVars``; a
+product's authored values override its settings' (UsdRender's inheritance of
+``RenderSettingsBase``). Command-line values override both. A stage without settings (or without
+products) renders one beauty image.
+
+Attributes of the settings, products and vars that change nothing here by definition (no motion
+blur is rendered, so ``disableMotionBlur`` and ``instantaneousShutter`` hold) are honoured; any
+other authored attribute that is not honoured is warned about, naming it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from typing import Any
 
+import numpy as np
 from pxr import Usd, UsdRender
 
 from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
 
 DEFAULT_RESOLUTION = (512, 512)
+HONOURED = {
+    "resolution",
+    "pixelAspectRatio",
+    "aspectRatioConformPolicy",
+    "camera",
+    "products",
+    "orderedVars",
+    "productName",
+    "productType",
+    "sourceName",
+    "sourceType",
+    "dataType",
+    "disableMotionBlur",
+    "instantaneousShutter",
+    "disableDepthOfField",
+    "includedPurposes",
+}
+#: what the delegate draws: gprims of these purposes (guide and proxy are skipped)
+RENDERED_PURPOSES = ("default", "render")
+LINEAR_REC709 = ("", "lin_rec709_scene", "lin_rec709", "Linear Rec.709 (sRGB)", "linear")
 
 
 def parse_resolution(text: str, where: str = "--resolution") -> tuple[int, int]:
@@ -37,14 +66,40 @@ def parse_resolution(text: str, where: str = "--resolution") -> tuple[int, int]:
 
 
 @dataclass
+class RenderVarSpec:
+    """One ``RenderVar``: an image layer of a product."""
+
+    path: str
+    name: str  # the layer's name in the output (the RenderVar prim's name)
+    source_name: str
+    source_type: str = "raw"
+    data_type: str = "color3f"
+
+
+@dataclass
+class ProductSpec:
+    """One image to render and write."""
+
+    path: str | None = None  # the RenderProduct prim (None: the stage has no products)
+    product_name: str = ""  # ``productName`` (the output file, by convention)
+    resolution: tuple[int, int] | None = None
+    camera: str | None = None
+    pixel_aspect: float = 1.0
+    conform: str = "expandAperture"
+    disable_dof: bool = False
+    vars: list[RenderVarSpec] = field(default_factory=list)  # empty: the beauty image alone
+
+
+@dataclass
 class RenderSettingsSpec:
-    """What the stage says about its image."""
+    """What the stage says about its images; the top-level fields are the first product's."""
 
     resolution: tuple[int, int] | None = None
     camera: str | None = None
     pixel_aspect: float = 1.0
     conform: str = "expandAperture"
     path: str | None = None
+    products: list[ProductSpec] = field(default_factory=list)
 
 
 def find_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
@@ -59,36 +114,135 @@ def find_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
 
 
 def read_render_settings(stage: Usd.Stage, diag: Diagnostics) -> RenderSettingsSpec:
-    """Resolution, camera and pixel aspect from the stage's RenderSettings and first RenderProduct."""
+    """The settings and every product (a stage without them: one default product)."""
     settings = find_settings(stage)
     if settings is None:
-        return RenderSettingsSpec()
-    spec = RenderSettingsSpec(path=str(settings.GetPath()))
-    sources: list[UsdRender.SettingsBase] = [settings]
-    products = settings.GetProductsRel().GetForwardedTargets()
-    if products:
-        product = stage.GetPrimAtPath(products[0])
-        if product and product.IsA(UsdRender.Product):
-            sources.append(UsdRender.Product(product))
-        if len(products) > 1:
+        return RenderSettingsSpec(products=[ProductSpec()])
+    base = _read_base(settings, ProductSpec(), diag)
+    _audit(settings.GetPrim(), diag)
+    _check_purposes(settings, diag)
+    products = []
+    for target in settings.GetProductsRel().GetForwardedTargets():
+        prim = stage.GetPrimAtPath(target)
+        if not prim or not prim.IsA(UsdRender.Product):
             diag.warn(
-                spec.path, f"{len(products)} render products; rendering the first ({products[0]})"
+                str(settings.GetPath()), f"products: {target} is not a RenderProduct; skipped"
             )
-    for source in sources:
-        resolution = source.GetResolutionAttr()
-        if resolution.HasAuthoredValue():
-            w, h = resolution.Get()
+            continue
+        products.append(_read_product(UsdRender.Product(prim), base, diag))
+    if not products:
+        products = [base]
+    first = products[0]
+    return RenderSettingsSpec(
+        resolution=first.resolution,
+        camera=first.camera,
+        pixel_aspect=first.pixel_aspect,
+        conform=first.conform,
+        path=str(settings.GetPath()),
+        products=products,
+    )
+
+
+def _read_base(
+    source: UsdRender.SettingsBase, inherited: ProductSpec, diag: Diagnostics
+) -> ProductSpec:
+    """``inherited`` with the values ``source`` authors (RenderSettingsBase attributes)."""
+    spec = replace(inherited)
+    where = str(source.GetPath())
+    resolution = source.GetResolutionAttr()
+    if resolution.HasAuthoredValue():
+        w, h = resolution.Get()
+        if w < 1 or h < 1:
+            diag.warn(where, f"resolution {w}x{h} is not positive; ignored")
+        else:
             spec.resolution = (int(w), int(h))
-        aspect = source.GetPixelAspectRatioAttr()
-        if aspect.HasAuthoredValue():
-            spec.pixel_aspect = float(aspect.Get())
-        conform = source.GetAspectRatioConformPolicyAttr()
-        if conform.HasAuthoredValue():
-            spec.conform = str(conform.Get())
-        targets = source.GetCameraRel().GetForwardedTargets()
-        if targets:
-            spec.camera = str(targets[0])
-    if spec.pixel_aspect <= 0:
-        diag.warn(spec.path, f"pixelAspectRatio {spec.pixel_aspect} is not positive; using 1")
-        spec.pixel_aspect = 1.0
+    aspect = source.GetPixelAspectRatioAttr()
+    if aspect.HasAuthoredValue():
+        value = float(aspect.Get())
+        if value > 0 and np.isfinite(value):
+            spec.pixel_aspect = value
+        else:
+            diag.warn(where, f"pixelAspectRatio {value} is not positive; using 1")
+    conform = source.GetAspectRatioConformPolicyAttr()
+    if conform.HasAuthoredValue():
+        spec.conform = str(conform.Get())
+    targets = source.GetCameraRel().GetForwardedTargets()
+    if targets:
+        spec.camera = str(targets[0])
+    dof = source.GetDisableDepthOfFieldAttr()
+    if dof.HasAuthoredValue():
+        spec.disable_dof = bool(dof.Get())
     return spec
+
+
+def _read_product(product: UsdRender.Product, base: ProductSpec, diag: Diagnostics) -> ProductSpec:
+    spec = _read_base(product, base, diag)
+    spec.path = str(product.GetPath())
+    spec.product_name = str(product.GetProductNameAttr().Get() or "")
+    kind = str(product.GetProductTypeAttr().Get() or "raster")
+    if kind != "raster":
+        diag.warn(spec.path, f"productType {kind!r} is not supported; rendered as a raster image")
+    _audit(product.GetPrim(), diag)
+    spec.vars = []
+    stage = product.GetPrim().GetStage()
+    for target in product.GetOrderedVarsRel().GetForwardedTargets():
+        prim = stage.GetPrimAtPath(target)
+        if not prim or not prim.IsA(UsdRender.Var):
+            diag.warn(spec.path, f"orderedVars: {target} is not a RenderVar; skipped")
+            continue
+        var = UsdRender.Var(prim)
+        _audit(prim, diag)
+        spec.vars.append(
+            RenderVarSpec(
+                path=str(prim.GetPath()),
+                name=prim.GetName(),
+                source_name=str(var.GetSourceNameAttr().Get() or ""),
+                source_type=str(var.GetSourceTypeAttr().Get() or "raw"),
+                data_type=str(var.GetDataTypeAttr().Get() or "color3f"),
+            )
+        )
+    return spec
+
+
+def _check_purposes(settings: UsdRender.Settings, diag: Diagnostics) -> None:
+    purposes = settings.GetIncludedPurposesAttr()
+    if purposes.HasAuthoredValue():
+        wanted = sorted(str(p) for p in purposes.Get() or [])
+        if wanted != sorted(RENDERED_PURPOSES):
+            diag.warn(
+                str(settings.GetPath()),
+                f"includedPurposes {wanted} is not supported; default and render prims are drawn",
+            )
+
+
+def _audit(prim: Usd.Prim, diag: Diagnostics) -> None:
+    """Warn about the prim's authored UsdRender attributes that are not honoured."""
+    definition = prim.GetPrimDefinition()
+    for name in definition.GetPropertyNames():
+        if name in HONOURED:
+            continue
+        attr = prim.GetAttribute(name)
+        if not attr or not attr.HasAuthoredValue():
+            continue
+        value = attr.Get()
+        if _equal(value, definition.GetAttributeFallbackValue(name)):
+            continue
+        if name == "renderingColorSpace" and str(value) in LINEAR_REC709:
+            continue
+        diag.warn(str(prim.GetPath()), f"{name} = {value!r} is not supported; ignored")
+    for name in prim.GetPropertyNames():
+        if name.startswith("mitsuba:"):
+            diag.warn(
+                str(prim.GetPath()),
+                f"{name} (hdmitsuba's setting) is ignored: Pavonine renders spectrally; "
+                "choose a variant with --variant",
+            )
+
+
+def _equal(value: Any, fallback: Any) -> bool:
+    if value is None or fallback is None:
+        return value is fallback
+    try:
+        return bool(np.array_equal(np.asarray(value), np.asarray(fallback)))
+    except (TypeError, ValueError):
+        return str(value) == str(fallback)

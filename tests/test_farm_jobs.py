@@ -22,6 +22,7 @@ from pavonine.pipeline.farm.jobs import (
     shard_seed,
     split_samples,
     variance_path,
+    view_outputs,
 )
 from pavonine.pipeline.farm.merge import merge_means, merge_variances
 from pavonine.render.imageio import read_exr
@@ -51,14 +52,22 @@ def test_output_names():
     assert output_name(out, None, -3) == Path("/r/shot.-003.exr") and frame_label(-3) == "-003"
     assert variance_path(Path("/r/shot.0012.exr")) == Path("/r/shot.variance.0012.exr")
     assert variance_path(out) == Path("/r/shot.variance.exr")
+    # one rule for every view: the first keeps -o, the others add their name (then the frame)
     jobs = plan("/s.usda", out, [View("A", "/A"), View("B", "/B")], [1, 2], png=True)
     assert [j.output.name for j in jobs] == [
-        "shot.A.0001.exr",
-        "shot.A.0002.exr",
+        "shot.0001.exr",
+        "shot.0002.exr",
         "shot.B.0001.exr",
         "shot.B.0002.exr",
     ]
-    assert jobs[0].png == Path("/r/shot.A.0001.png") and jobs[3].time == 2.0
+    assert jobs[0].png == Path("/r/shot.0001.png") and jobs[3].time == 2.0
+    # without -o: the first view's productName, the others' beside it, else STAGE.exr
+    views = [View("Main", None, "/R/Main", "main.exr"), View("Wide", None, "/R/Wide", "wide.exr")]
+    assert view_outputs("/s.usda", None, views) == [Path("main.exr"), Path("wide.exr")]
+    assert view_outputs("/s.usda", None, [View("A"), View("B")]) == [Path("s.exr"), Path("s.B.exr")]
+    twins = [View("Main", None, "/R/Main", "x.exr"), View("Main", None, "/S/Main", "x.exr")]
+    assert view_outputs("/s.usda", out, twins) == [out, Path("/r/shot.Main.exr")]
+    assert view_outputs("/s.usda", None, twins) == [Path("x.exr"), Path("x.Main.exr")]
 
 
 def test_samples_split_evenly_with_independent_seeds():
@@ -152,10 +161,10 @@ def test_several_cameras_and_products_in_one_call(tmp_path):
         "--workers",
         "0",
     )
-    a, b = (read_exr(tmp_path / f"c.{n}.exr") for n in ("CamA", "CamB"))
+    a, b = (read_exr(tmp_path / name) for name in ("c.exr", "c.CamB.exr"))
     assert a[1]["pavonine:camera"] == "/CamA" and b[1]["pavonine:camera"] == "/CamB"
-    run(str(stage), "-o", str(tmp_path / "p.exr"), "--all-products", "--workers", "0", "--png")
-    wide, tall = (read_exr(tmp_path / f"p.{n}.exr") for n in ("Wide", "Tall"))
+    run(str(stage), "-o", str(tmp_path / "p.exr"), "--workers", "0", "--png")  # every product
+    wide, tall = (read_exr(tmp_path / name) for name in ("p.exr", "p.Tall.exr"))
     assert wide[0].shape[:2] == (16, 32) and wide[1]["pavonine:camera"] == "/CamA"
     assert tall[0].shape[:2] == (24, 16) and tall[1]["pavonine:camera"] == "/CamB"
     assert (tmp_path / "p.Tall.png").is_file()

@@ -301,7 +301,10 @@ def test_mesh_attribute_names_follow_the_contract():
         mesh_attribute_name("x", "perPoint")
 
 
-def test_every_primvar_reaches_the_mitsuba_mesh():
+def test_primvars_a_material_reads_reach_the_mitsuba_mesh():
+    """No material: the fallback reads displayColor/displayOpacity, so both become attributes
+    (colour with its ``_color`` twin); st is the texture coordinates; primvars nobody reads are
+    not built."""
     import mitsuba as mi
 
     stage = Usd.Stage.CreateInMemory()
@@ -317,21 +320,114 @@ def test_every_primvar_reaches_the_mitsuba_mesh():
         [(u, v) for _ in range(6) for u, v in ((0, 0), (1, 0), (1, 1), (0, 1))]
     )
     pv.CreatePrimvar("my:weight", Sdf.ValueTypeNames.Float, "constant").Set(2.0)
+    pv.CreatePrimvar("unread", Sdf.ValueTypeNames.FloatArray, "faceVarying").Set([0.5] * 24)
     scene, diag = quiet(lambda d: StageDelegate(stage, Usd.TimeCode.Default(), d).sync())
     assert diag.messages == []
     (shape,) = scene.shapes.values()
-    for name in ("vertex_displayColor", "face_displayOpacity", "vertex_st"):
+    for name in ("vertex_displayColor", "vertex_displayColor_color", "face_displayOpacity"):
         assert shape.has_attribute(name), name
-    assert not shape.has_attribute("vertex_my_weight")
+    for name in ("vertex_my_weight", "vertex_unread", "vertex_st"):
+        assert not shape.has_attribute(name), name
     params = mi.traverse(shape)
     faces = np.array(params["faces"]).reshape(-1, 3)
     positions = np.array(params["vertex_positions"]).reshape(-1, 3)
+    assert len(positions) == 24  # unwelded for the face-varying st (the texture coordinates)
+    assert len(np.array(params["vertex_texcoords"])) == 2 * len(positions)
     colours = np.array(params["vertex_displayColor"]).reshape(-1, 3)
     index = (4 * (positions[:, 0] > 0) + 2 * (positions[:, 1] > 0) + (positions[:, 2] > 0)) / 8
     assert np.allclose(colours[:, 0], index)  # per vertex, after unwelding for st
     face_opacity = np.array(params["face_displayOpacity"])
     assert len(face_opacity) == len(faces)
     assert sorted(set(face_opacity.round(3))) == [0.5, 1.0]
+
+
+def test_a_primvar_reader_gets_its_attribute_and_the_mesh_stays_welded():
+    """A material reading one vertex primvar: that attribute is built (values per vertex), the
+    unread face-varying ones are not, so the cube keeps its 8 shared vertices."""
+    import mitsuba as mi
+
+    stage = Usd.Stage.CreateInMemory()
+    mesh = cube_mesh(stage, scheme="none")
+    pv = UsdGeom.PrimvarsAPI(mesh)
+    pv.CreatePrimvar("wear", Sdf.ValueTypeNames.FloatArray, "vertex").Set([i / 8 for i in range(8)])
+    pv.CreatePrimvar("unread", Sdf.ValueTypeNames.Float3Array, "faceVarying").Set([(1, 0, 0)] * 24)
+    material = UsdShade.Material.Define(stage, "/Looks/Worn")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Worn/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Worn/Wear")
+    reader.CreateIdAttr("UsdPrimvarReader_float")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("wear")
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).ConnectToSource(
+        reader.ConnectableAPI(), "result"
+    )
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    scene, diag = quiet(lambda d: StageDelegate(stage, Usd.TimeCode.Default(), d).sync())
+    assert diag.messages == []
+    (shape,) = scene.shapes.values()
+    assert shape.has_attribute("vertex_wear") and not shape.has_attribute("vertex_wear_color")
+    assert not shape.has_attribute("vertex_unread")
+    params = mi.traverse(shape)
+    positions = np.array(params["vertex_positions"]).reshape(-1, 3)
+    assert len(positions) == 8
+    index = (4 * (positions[:, 0] > 0) + 2 * (positions[:, 1] > 0) + (positions[:, 2] > 0)) / 8
+    assert np.allclose(np.array(params["vertex_wear"]), index)
+
+
+def test_varying_primvars_read_on_curves_are_warned():
+    """Mitsuba curves carry no attributes: a per-vertex displayColor (read by the no-material
+    fallback) is warned and the fallback colour used; a constant one is the curves' colour."""
+    stage = Usd.Stage.CreateInMemory()
+    curve = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    curve.CreateTypeAttr("linear")
+    curve.CreateCurveVertexCountsAttr([2])
+    curve.CreatePointsAttr([(0, 0, 0), (1, 0, 0)])
+    curve.CreateWidthsAttr([0.1])
+    curve.SetWidthsInterpolation("constant")
+    colour = curve.CreateDisplayColorPrimvar("vertex")
+    colour.Set([(1, 0, 0), (0, 0, 1)])
+
+    def synced_curve():
+        scene, diag = quiet(lambda d: StageDelegate(stage, Usd.TimeCode.Default(), d).sync())
+        (shape,) = scene.shapes.values()
+        return str(shape), diag.messages
+
+    varying, messages = synced_curve()
+    assert messages == [
+        "/Hair: primvars:displayColor: non-constant primvars on curves are not supported "
+        "(Mitsuba curves carry none); the reader's fallback is used"
+    ]
+    colour.SetInterpolation("constant")
+    colour.Set([(1, 0, 0)])
+    red, messages = synced_curve()
+    assert messages == [] and red != varying
+    colour.GetAttr().Clear()
+    assert synced_curve() == (varying, [])  # the fallback: as if no displayColor were authored
+
+
+def test_sidedness_wrappers_follow_double_sided_and_leave_transmission_alone():
+    """singleSided → front only, doubleSided → twosided; a transmissive surface (glass from the
+    ``mitsuba`` context) and a BSDF that shades both sides itself (the feather) are never wrapped."""
+    from pavonine.render.shading.primvars import Binding
+    from pavonine.render.shading.spec import MaterialSpec, load_bsdf
+
+    def loaded(bsdf, double_sided, **fields):
+        spec = MaterialSpec("/M", bsdf, **fields)
+        result, diag = quiet(load_bsdf, spec, double_sided, Binding(), "/M")
+        assert diag.messages == []
+        return str(result)
+
+    assert loaded({"type": "diffuse"}, False).startswith("FrontOnly[")
+    assert loaded({"type": "diffuse"}, True).startswith("TwoSided[")
+    assert loaded({"type": "diffuse"}, False, opacity=0.5).startswith("FrontOnly[Mask[")
+    for double_sided in (False, True):
+        assert loaded({"type": "dielectric"}, double_sided).startswith("SmoothDielectric[")
+        assert loaded({"type": "principled", "spec_trans": 0.5}, double_sided).startswith(
+            "Principled BSDF"
+        )
+        assert loaded({"type": "diffuse"}, double_sided, two_sided=True).startswith(
+            "SmoothDiffuse["
+        )
 
 
 # -- wrongly typed geometry attributes --------------------------------------------------------

@@ -93,8 +93,8 @@ def test_subdivided_cube_is_rounder_than_its_cage(tmp_path):
 def test_single_sided_back_faces_are_culled_double_sided_are_not(tmp_path):
     seen = {}
     for double_sided in (False, True):
-        # the sun 50° off the view: the card's shadow falls beside the middle of the wall (rays
-        # toward lights still stop at culled faces: see render/facing.py)
+        # the sun 50° off the view: the card's shadow falls beside the middle of the wall (shadow
+        # rays still stop at culled faces: see the next test and render/facing.py)
         stage = lit_stage(tmp_path / f"sided_{double_sided}.usda", sun_tilt=50.0)
         back = UsdGeom.Mesh.Define(stage, "/Wall")  # faces the camera, lit
         back.CreatePointsAttr([(-1.4, -1.4, -1), (1.4, -1.4, -1), (1.4, 1.4, -1), (-1.4, 1.4, -1)])
@@ -121,6 +121,27 @@ def test_single_sided_back_faces_are_culled_double_sided_are_not(tmp_path):
     culled, shown = seen[False], seen[True]
     assert culled[0] > 0.3 and culled[2] < 0.05  # the red wall shows through the culled card
     assert shown[2] > 0.3 and shown[0] < 0.05  # the double-sided card is blue from behind
+
+
+def test_single_sided_card_casts_its_shadow_whichever_side_faces_the_light(tmp_path):
+    """Culling is for the rays that look: shadow rays stop at a single-sided card from either side
+    (``volpath`` lets shadow rays through ``mask``\\ s, so a front-facing mask would leak light)."""
+    for front_up in (True, False):
+        stage = lit_stage(tmp_path / f"shadow_{front_up}.usda", sun_tilt=30.0)
+        floor = UsdGeom.Mesh.Define(stage, "/Floor")
+        floor.CreatePointsAttr([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)])
+        floor.CreateFaceVertexCountsAttr([4])
+        floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        floor.CreateSubdivisionSchemeAttr("none")
+        card = UsdGeom.Mesh.Define(stage, "/Card")  # 1 above the floor, its shadow 0.58 aside
+        card.CreatePointsAttr([(-0.5, -0.5, 1), (0.5, -0.5, 1), (0.5, 0.5, 1), (-0.5, 0.5, 1)])
+        card.CreateFaceVertexCountsAttr([4])
+        card.CreateFaceVertexIndicesAttr([0, 1, 2, 3] if front_up else [0, 3, 2, 1])
+        card.CreateSubdivisionSchemeAttr("none")
+        image, _ = render(stage)
+        # floor strips beside the card's footprint, 0.6-1.0 units above and below it
+        strips = sorted([image[8:14, 18:30].mean(), image[34:40, 18:30].mean()])
+        assert strips[0] < 0.03 and strips[1] > 0.3, (front_up, strips)
 
 
 def test_primvar_interpolations_survive_a_render(tmp_path):

@@ -151,6 +151,12 @@ def channel_material(stage, path, texture, wiring, **texture_inputs):
     tex = UsdShade.Shader.Define(stage, f"{path}/Maps")
     tex.CreateIdAttr("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(texture)
+    reader = UsdShade.Shader.Define(stage, f"{path}/St")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+        reader.ConnectableAPI(), "result"
+    )
     for name, (kind, value) in texture_inputs.items():
         tex.CreateInput(name, kind).Set(value)
     for usd_input, output in wiring.items():
@@ -161,50 +167,60 @@ def channel_material(stage, path, texture, wiring, **texture_inputs):
     return material, shader
 
 
-def test_texture_channels_scale_and_bias_reach_their_inputs(tmp_path):
-    from pavonine.render.materials import preview_surface_bsdf
+def translated(material):
+    from pavonine.render.materials import translate_material
 
+    diag = Diagnostics()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        spec = translate_material(material, Usd.TimeCode.Default(), diag)
+    return spec, diag
+
+
+def test_texture_channels_scale_and_bias_reach_their_inputs(tmp_path):
     rgba = np.zeros((4, 4, 4), np.uint8)
     rgba[..., 0], rgba[..., 1], rgba[..., 2] = 255, 51, 0  # r = 1, g = 0.2, b = 0
     rgba[:, :2, 3], rgba[:, 2:, 3] = 0, 255  # alpha: left half 0, right half 1
     texture = rgba_texture(tmp_path / "maps.png", rgba)
     stage = Usd.Stage.CreateNew(str(tmp_path / "channels.usda"))
-    _, shader = channel_material(
+    material, _ = channel_material(
         stage, "/Looks/M", texture, {"metallic": "r", "roughness": "g", "opacity": "a"},
         scale=(Sdf.ValueTypeNames.Float4, (1.0, 0.5, 1.0, 1.0)),
         bias=(Sdf.ValueTypeNames.Float4, (0.0, 0.1, 0.0, 0.0)),
+        sourceColorSpace=(Sdf.ValueTypeNames.Token, "raw"),
     )  # fmt: skip
-    diag = Diagnostics()
-    bsdf, _ = preview_surface_bsdf(shader, Usd.TimeCode.Default(), diag)
-    assert bsdf["type"] == "mask" and not diag.messages
+    spec, diag = translated(material)
+    assert not diag.messages
 
     def values(texture_dict):
         assert texture_dict["type"] == "bitmap" and texture_dict["raw"]
         return np.atleast_3d(np.array(texture_dict["bitmap"]))[..., 0]
 
-    np.testing.assert_allclose(values(bsdf["bsdf"]["metallic"]), 1.0)
-    np.testing.assert_allclose(values(bsdf["bsdf"]["roughness"]), 0.2 * 0.5 + 0.1, atol=1e-6)
-    np.testing.assert_array_equal(values(bsdf["opacity"])[:, :2], 0.0)
-    np.testing.assert_array_equal(values(bsdf["opacity"])[:, 2:], 1.0)
+    np.testing.assert_allclose(values(spec.bsdf["metallic"]), 1.0)
+    np.testing.assert_allclose(values(spec.bsdf["roughness"]), 0.2 * 0.5 + 0.1, atol=1e-6)
+    np.testing.assert_array_equal(values(spec.opacity)[:, :2], 0.0)
+    np.testing.assert_array_equal(values(spec.opacity)[:, 2:], 1.0)
+    # sourceColorSpace auto: an 8-bit RGBA file is sRGB-encoded (UsdUVTexture spec); alpha is not
+    stage.GetPrimAtPath("/Looks/M/Maps").GetAttribute("inputs:sourceColorSpace").Set("auto")
+    spec, _ = translated(UsdShade.Material(stage.GetPrimAtPath("/Looks/M")))
+    decoded = ((0.2 + 0.055) / 1.055) ** 2.4  # sRGB EOTF of 51/255
+    np.testing.assert_allclose(values(spec.bsdf["roughness"]), decoded * 0.5 + 0.1, atol=1e-4)
+    np.testing.assert_array_equal(values(spec.opacity)[:, 2:], 1.0)
 
 
 def test_opacity_threshold_and_unequal_wrap_modes(tmp_path):
-    from pavonine.render.materials import preview_surface_bsdf
-
     rgba = np.full((2, 2, 4), 255, np.uint8)
     rgba[0, :, 3] = 102  # alpha 0.4 on the top row
     texture = rgba_texture(tmp_path / "cut.png", rgba)
     stage = Usd.Stage.CreateNew(str(tmp_path / "cut.usda"))
-    _, shader = channel_material(
+    material, shader = channel_material(
         stage, "/Looks/Cut", texture, {"opacity": "a"},
         wrapS=(Sdf.ValueTypeNames.Token, "clamp"), wrapT=(Sdf.ValueTypeNames.Token, "repeat"),
     )  # fmt: skip
     shader.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(0.5)
-    diag = Diagnostics()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", StageWarning)
-        bsdf, _ = preview_surface_bsdf(shader, Usd.TimeCode.Default(), diag)
-    opacity = np.atleast_3d(np.array(bsdf["opacity"]["bitmap"]))[..., 0]
+    spec, diag = translated(material)
+    assert spec.opacity_mode == "presence"  # a threshold makes a cut-out whatever the mode
+    opacity = np.atleast_3d(np.array(spec.opacity["bitmap"]))[..., 0]
     np.testing.assert_array_equal(opacity, [[0.0, 0.0], [1.0, 1.0]])
     assert any(
         m.startswith("/Looks/Cut/Maps: wrapS 'clamp' / wrapT 'repeat'") for m in diag.messages
@@ -220,5 +236,6 @@ def test_alpha_channel_cuts_the_quad_out(tmp_path):
     material, _ = channel_material(stage, "/Looks/A", texture, {"opacity": "a"})
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     rgb = render(stage)
-    left, right = rgb[12:20, 10:14].mean(), rgb[12:20, 18:22].mean()
+    # texels 0-1 (u < 0.5) are transparent; bilinear filtering blends over u 0.375-0.625
+    left, right = rgb[12:20, 6:10].mean(), rgb[12:20, 22:26].mean()
     assert left < 0.02 and right > 0.3

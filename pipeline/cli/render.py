@@ -1,9 +1,17 @@
-"""``pavonine render STAGE``: a USD stage to a scene-linear EXR (and a display PNG)."""
+"""``pavonine render STAGE``: a USD stage to scene-linear EXRs (and display PNGs).
+
+Every RenderProduct of the stage's RenderSettings is rendered (``--product`` picks some), each
+with its camera, resolution and RenderVars as layers of one EXR, named by one rule
+(:func:`pavonine.pipeline.farm.jobs.view_outputs`). One time code renders in this process, all
+products in one Mitsuba scene; frames, turntables, several cameras, sample shards, ``--workers``
+and ``--scheduler`` go through the farm (:mod:`pavonine.pipeline.farm`).
+"""
 
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -11,6 +19,7 @@ from pavonine.pipeline.cli.options import (
     display_options,
     emit_json,
     json_option,
+    log,
     output_option,
     requires,
     say,
@@ -19,6 +28,7 @@ from pavonine.pipeline.cli.options import (
     warnings_to_log,
 )
 from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.pipeline.farm.jobs import RenderJob, View
 from pavonine.pipeline.farm.options import farm_options
 
 _PATH_OR_NULL = {"type": ["string", "null"]}
@@ -43,6 +53,12 @@ IMAGE_SCHEMA = {
         },
         "spp": {"type": "integer", "description": "samples per pixel (all shards)"},
         "variant": {"type": ["string", "null"], "description": "Mitsuba variant"},
+        "product": {**_PATH_OR_NULL, "description": "the RenderProduct prim rendered, if any"},
+        "channels": {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "the EXR's channels (R, G, B, then the RenderVars' layers)",
+        },
         "shards": {"type": "integer", "description": "sample shards merged into it"},
         "workers": {
             "type": "array",
@@ -92,20 +108,23 @@ JSON_SCHEMA = {
 @click.command("render")
 @click.argument("stage", type=click.Path(dir_okay=False, path_type=Path))
 @output_option(
-    folder=False, help="Scene-linear EXR to write [default: STAGE's name with .exr, here]."
+    folder=False,
+    help="Scene-linear EXR of the first image [default: its RenderProduct's productName, else "
+    "STAGE's name with .exr, here]; further products and cameras are written beside it "
+    "(OUT.<name>.exr), frames numbered (OUT.####.exr).",
 )
 @click.option(
     "--png",
     "png",
     is_flag=True,
-    help="Also write a display PNG beside the EXR (OUTPUT with .png).",
+    help="Also write a display PNG beside each EXR that holds the beauty (OUT.png).",
 )
 @click.option(
     "--png-out",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     metavar="FILE.png",
-    help="Also write the display PNG, to FILE.png (implies --png).",
+    help="Also write the display PNG, to FILE.png (implies --png; one image only).",
 )
 @click.option(
     "--spp", type=click.IntRange(min=1), default=64, show_default=True, help="Samples per pixel."
@@ -113,15 +132,17 @@ JSON_SCHEMA = {
 @click.option(
     "--resolution",
     metavar="WxH",
-    help="Image size [default: the stage's RenderSettings, else 512x512].",
+    help="Image size of every image [default: each product's, else the RenderSettings', else "
+    "512x512].",
 )
 @click.option(
     "--camera",
     "cameras",
     metavar="PRIM",
     multiple=True,
-    help="Camera prim path [default: RenderSettings camera, else the first camera, else a framing "
-    "camera]; repeat it to render several cameras (one image each).",
+    help="Camera prim path, overriding the products' [default: each product's or the "
+    "RenderSettings' camera, else the first camera, else a framing camera]; repeat it to render "
+    "one product through several cameras (one image each).",
 )
 @farm_options
 @click.option(
@@ -149,7 +170,6 @@ def render(
     resolution: str | None,
     cameras: tuple[str, ...],
     products: tuple[str, ...],
-    all_products: bool,
     frames: str | None,
     turntable: int | None,
     variance: bool,
@@ -164,80 +184,157 @@ def render(
 ) -> None:
     """Render a USD STAGE with the spectral Mitsuba delegate.
 
-    Without a camera the stage is framed automatically; without lights it is lit by a default
-    sun (from the right) and sky, so a bare feather asset renders as it is. Anything the
-    renderer cannot render as USD says is named in a warning.
+    Every RenderProduct of the stage's RenderSettings is rendered (--product picks some), each
+    with its camera, resolution and RenderVars as layers of one EXR. Without a camera the stage
+    is framed automatically; without lights it is lit by a default sun (from the right) and sky,
+    so a bare feather asset renders as it is. Anything the renderer cannot render as USD says is
+    named in a warning.
 
-    Frame ranges, turntables, several cameras or RenderProducts write numbered images
+    Frame ranges, turntables, several cameras and sample shards write numbered images
     (OUT.####.exr; docs/farm.md) and run on a Dask cluster: embedded (--workers N, the default
     for more than one image) or existing (--scheduler ADDRESS).
     """
-    from pavonine.backend import BackendWarning
-    from pavonine.pipeline.farm.render import image_record
-    from pavonine.render.api import render_stage
-    from pavonine.render.diagnostics import StageWarning
-    from pavonine.render.imageio import check_writable, write_render
+    from pavonine.pipeline.farm import cli as farm
+    from pavonine.render.imageio import check_writable
     from pavonine.render.settings import parse_resolution
 
     # Everything the user typed is checked before the (possibly long) render.
     size = None if resolution is None else parse_resolution(resolution)
-    batch = (frames, turntable, products, all_products, variance, scheduler, split)
-    if len(cameras) > 1 or any(batch) or workers:
-        from pavonine.pipeline.farm.cli import render_batch
-
-        render_batch(
-            stage, output, png, png_out, spp, size, cameras, products, all_products, frames,
-            turntable, variance, workers, scheduler, split, time_, seed, variant, display,
-            json_target,
-        )  # fmt: skip
-        return
-    camera = cameras[0] if cameras else None
-    output = output or Path(stage.stem + ".exr")
-    if output.suffix.lower() != ".exr":
+    if output is not None and output.suffix.lower() != ".exr":
         raise InputError(str(output), "output must be an .exr file (use --png for a display image)")
     if png_out is not None and png_out.suffix.lower() != ".png":
         raise InputError(f"--png-out {png_out}", "must name a .png file")
-    png_path = png_out or (output.with_suffix(".png") if png else None)
-    for path in (output, png_path):
-        if path is not None:
+    png = png or png_out is not None
+    views = farm.render_views(stage, products, cameras)
+    if farm.needs_farm(frames, turntable, workers, scheduler, split, cameras):
+        batch = farm.plan_batch(
+            stage, views, output, png, png_out, size, frames, turntable, variance, workers,
+            scheduler, time_,
+        )  # fmt: skip
+        for path in (p for job in batch.jobs for p in _files(job)):
             check_writable(path)
+        report = farm.render_batch(
+            stage, batch, spp=spp, workers=workers, scheduler=scheduler, split=split, seed=seed,
+            variant=variant, display=display, on_image=_show_with_warnings,
+        )  # fmt: skip
+    else:
+        from pavonine.pipeline.farm.jobs import plan
 
+        jobs = plan(
+            str(stage), output, views, None, time=time_, resolution=size, png=png,
+            variance=variance,
+        )  # fmt: skip
+        if png_out is not None:
+            if len(jobs) > 1:
+                raise InputError(
+                    "--png-out", f"names one file, the stage has {len(jobs)} RenderProducts: "
+                    "use --png (a PNG beside each EXR) or pick one with --product",
+                )  # fmt: skip
+            jobs = [replace(jobs[0], png=png_out)]
+        for path in (p for job in jobs for p in _files(job)):
+            check_writable(path)
+        report = _render_here(
+            stage, views, jobs, spp=spp, size=size, time=time_, seed=seed, variant=variant,
+            variance=variance, display=display,
+        )  # fmt: skip
+    images = report["images"]
+    emit_json(
+        json_target,
+        {
+            "spp": spp,
+            "seed": seed,
+            "variant": images[0]["variant"] if images else variant,
+            "display": asdict(display) if any(i["png"] for i in images) else None,
+            "warnings": sorted({w for image in images for w in image["warnings"]}),
+            **report,
+        },
+    )
+
+
+def _files(job: RenderJob) -> list[Path]:
+    return [p for p in (job.output, job.png, job.variance) if p is not None]
+
+
+def _show(record: dict[str, Any]) -> None:
+    """One line per image written."""
+    written = " + ".join(str(p) for p in (record["exr"], record["png"], record["variance"]) if p)
+    w, h = record["resolution"]
+    shards = f" in {record['shards']} shards" if record["shards"] > 1 else ""
+    say(
+        f"{written}: {w}×{h}, {record['spp']} spp{shards}, {record['variant']}, "
+        f"channels {', '.join(record['channels'])}"
+    )
+
+
+def _show_with_warnings(record: dict[str, Any]) -> None:
+    """A farm image's line and the warnings its tasks returned (workers do not log)."""
+    _show(record)
+    for message in record["warnings"]:
+        log.warning("%s", message)
+
+
+def _render_here(
+    stage: Path,
+    views: list[View],
+    jobs: list[RenderJob],
+    *,
+    spp: int,
+    size: tuple[int, int] | None,
+    time: float | None,
+    seed: int,
+    variant: str | None,
+    variance: bool,
+    display,
+) -> dict[str, Any]:
+    """Every view at one time code in this process: one Mitsuba scene, a sensor per product."""
+    from pavonine.backend import BackendWarning
+    from pavonine.pipeline.farm.render import image_record
+    from pavonine.render.api import render_products
+    from pavonine.render.diagnostics import StageWarning
+    from pavonine.render.imageio import RenderFiles, write_renders
+
+    wanted = [v.product for v in views if v.product is not None]
     with warnings_to_log(StageWarning, BackendWarning):
-        result = render_stage(
+        results = render_products(
             stage,
             spp=spp,
             resolution=size,
             seed=seed,
-            camera=camera,
-            time=time_,
+            camera=views[0].camera,
+            time=time,
             variant=variant,
+            moments=variance,
             progress=show_progress(),
+            products=wanted or None,
         )
-    write_render(output, result.rgb, result.metadata, png_path=png_path, display=display)
-    written = [str(p) for p in (output, png_path) if p is not None]
-    w, h = result.metadata["resolution"]
-    say(
-        f"{' + '.join(written)}: {w}×{h}, {spp} spp, {result.metadata['variant']}, "
-        f"{result.metadata['seconds']:.1f} s"
-    )
-    image = image_record(
-        result.metadata,
-        exr=output,
-        png=png_path,
-        label=output.name,
-        warnings=result.warnings,
-    )
-    emit_json(
-        json_target,
-        {
-            "images": [image],
-            "spp": spp,
-            "seed": seed,
-            "variant": result.metadata["variant"],
-            "seconds": result.metadata["seconds"],
-            "display": None if png_path is None else asdict(display),
-            "warnings": list(result.warnings),
-            "workers": 0,
-            "scheduler": None,
-        },
-    )
+    files, images = [], []
+    for job, result in zip(jobs, results, strict=True):
+        png = job.png if result.has_beauty else None
+        if job.png is not None and png is None:
+            log.warning("%s has no beauty layer: no PNG", result.product.path)
+        layers = result.exr_layers()
+        files.append(
+            RenderFiles(
+                job.output, result.rgb, result.metadata, png, layers, job.variance, result.variance
+            )
+        )
+        images.append(
+            image_record(
+                result.metadata,
+                exr=job.output,
+                png=png,
+                variance=job.variance,
+                label=job.label,
+                channels=[c for names, _ in layers for c in names],
+                warnings=result.warnings,
+            )
+        )
+    write_renders(files, display)
+    for image in images:
+        _show(image)
+    return {
+        "images": images,
+        "seconds": results[0].metadata["seconds"],
+        "workers": 0,
+        "scheduler": None,
+    }

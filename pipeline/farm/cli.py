@@ -1,67 +1,66 @@
-"""``pavonine render`` for batches: expand frames, turntables, cameras and products into jobs,
-pick where they run (this process, local workers, an existing scheduler), run, report."""
+"""``pavonine render`` beyond one image at one time: what to render (RenderProducts, cameras), and
+the farm path (frames, turntables, sample shards) in this process or on a Dask cluster."""
 
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, replace
+import warnings
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from pavonine.pipeline.cli.options import emit_json, log, say, show_progress
+from pavonine.pipeline.cli.options import log, say, show_progress
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.farm.jobs import View, parse_frames, plan
+from pavonine.pipeline.farm.jobs import RenderJob, View, parse_frames, plan
 
 if TYPE_CHECKING:
     from pavonine.materials.display import DisplayTransform
 
 
-def product_views(stage_path: Path, products: tuple[str, ...], every: bool) -> list[View]:
-    """A view per RenderProduct: its camera and resolution (falling back on its settings')."""
-    from pxr import UsdRender
+def render_views(stage: Path, products: tuple[str, ...], cameras: tuple[str, ...]) -> list[View]:
+    """What to render, before rendering: every RenderProduct of the stage's settings (or those
+    ``--product`` names; a stage without products: one view), each through its own camera or,
+    for every ``--camera`` given, through that one.
 
+    A view's name is what sets it apart from the first (product, camera): the product's prim
+    name for a later product, the camera's for a later camera, both for a later pair
+    (``Tall.CamB``); only the first camera's view of a product keeps its ``productName``.
+    """
+    from pavonine.render.api import choose_products
     from pavonine.render.delegate import open_stage
     from pavonine.render.diagnostics import Diagnostics
-    from pavonine.render.settings import find_settings
+    from pavonine.render.settings import read_render_settings
 
-    stage = open_stage(stage_path, Diagnostics())
-    settings = find_settings(stage)
-    paths = list(products)
-    if every:
-        if settings is None:
-            raise InputError("--all-products", f"{stage_path} has no RenderSettings")
-        paths += [
-            str(p) for p in settings.GetProductsRel().GetForwardedTargets() if str(p) not in paths
-        ]
-        if not paths:
-            raise InputError("--all-products", f"{settings.GetPath()} has no products")
+    diag = Diagnostics()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the render itself warns, once
+        settings = read_render_settings(open_stage(stage, diag), diag)
+    chosen = choose_products(settings.products, list(products) or None, False)
     views = []
-    for path in paths:
-        prim = stage.GetPrimAtPath(path)
-        if not prim or not prim.IsA(UsdRender.Product):
-            raise InputError("--product", f"no RenderProduct at {path}")
-        product = UsdRender.Product(prim)
-        camera = resolution = None
-        for source in (settings, product):
-            if source is None:
-                continue
-            targets = source.GetCameraRel().GetForwardedTargets()
-            camera = str(targets[0]) if targets else camera
-            if source.GetResolutionAttr().HasAuthoredValue():
-                resolution = tuple(int(v) for v in source.GetResolutionAttr().Get())
-        if (
-            product.GetPixelAspectRatioAttr().HasAuthoredValue()
-            or product.GetAspectRatioConformPolicyAttr().HasAuthoredValue()
-        ):
-            log.warning(
-                "%s: a product's pixelAspectRatio and aspectRatioConformPolicy are not applied "
-                "per product (the RenderSettings' are)",
-                path,
-            )
-        views.append(View(prim.GetName(), camera, resolution))
+    for i, product in enumerate(chosen):
+        product_prim = (product.path or "").rsplit("/", 1)[-1]
+        for j, camera in enumerate(cameras or (None,)):
+            camera_prim = (camera or "").rsplit("/", 1)[-1]
+            parts = (product_prim if i else "", camera_prim if j else "")
+            name = ".".join(p for p in parts if p) or product_prim or camera_prim
+            product_name = product.product_name if j == 0 else ""
+            views.append(View(name, camera, product.path, product_name))
     return views
+
+
+def needs_farm(
+    frames: str | None,
+    turntable: int | None,
+    workers: int | None,
+    scheduler: str | None,
+    split: int | None,
+    cameras: tuple[str, ...],
+) -> bool:
+    """Frames, turntables, workers, a scheduler, sample shards or several cameras go through
+    :func:`render_batch`; one time code of one or more products renders in this process."""
+    return bool(frames or turntable or workers or scheduler or split or len(cameras) > 1)
 
 
 def default_workers(images: int, split: int | None) -> int:
@@ -70,153 +69,107 @@ def default_workers(images: int, split: int | None) -> int:
     return 0 if tasks <= 1 else min(os.cpu_count() or 1, tasks)
 
 
-def render_batch(
+@dataclass
+class BatchPlan:
+    """A farm call, checked before anything is rendered or written."""
+
+    jobs: list[RenderJob]
+    #: a turntable: its layer (written first) and the camera it starts from; job ``i`` renders
+    #: frame ``i % frames`` through that frame's orbit camera
+    turntable: tuple[Path, int, str | None] | None = None
+
+
+def plan_batch(
     stage: Path,
+    views: list[View],
     output: Path | None,
     png: bool,
     png_out: Path | None,
-    spp: int,
     size: tuple[int, int] | None,
-    cameras: tuple[str, ...],
-    products: tuple[str, ...],
-    all_products: bool,
     frames_text: str | None,
     turntable: int | None,
     variance: bool,
     workers: int | None,
     scheduler: str | None,
-    split: int | None,
     time: float | None,
-    seed: int,
-    variant: str | None,
-    display: DisplayTransform,
-    json_target: str | None = None,
-) -> None:
-    """The batch path of ``pavonine render`` (see :mod:`pavonine.pipeline.farm`)."""
-    from pavonine.backend import thread_count
-    from pavonine.pipeline.farm.cluster import NO_FARM, farm_installed, open_cluster
-    from pavonine.pipeline.farm.render import FarmError, run_batch
-    from pavonine.render.imageio import check_writable
+) -> BatchPlan:
+    """The jobs of a farm call (names: :func:`~pavonine.pipeline.farm.jobs.view_outputs`)."""
+    from pavonine.pipeline.farm.cluster import NO_FARM, farm_installed
 
-    if not stage.is_file():
-        raise InputError(str(stage), "no such file")
     if workers is not None and scheduler is not None:
         raise InputError("--workers", "give --workers (local cluster) or --scheduler, not both")
     if (scheduler is not None or workers) and not farm_installed():
         raise InputError("--scheduler" if scheduler is not None else "--workers", NO_FARM)
-    if turntable and (frames_text or len(cameras) > 1 or products or all_products):
+    if turntable and (frames_text or len({v.camera for v in views}) > 1):
         raise InputError(
-            "--turntable", "orbits one camera at one time: drop --frames/--product/extra --camera"
+            "--turntable", "orbits one camera at one time: drop --frames and extra --camera"
         )
-    if (products or all_products) and cameras:
-        raise InputError("--product", "a product names its own camera: drop --camera")
-    output = output or Path(stage.stem + ".exr")
-    if output.suffix.lower() != ".exr":
-        raise InputError(str(output), "output must be an .exr file (use --png for a display image)")
-    if png_out is not None and png_out.suffix.lower() != ".png":
-        raise InputError(f"--png-out {png_out}", "must name a .png file")
     frames = parse_frames(frames_text) if frames_text else None
     stage_path = stage.resolve()
-    if turntable:
+    common = dict(resolution=size, png=png, variance=variance, named_after=stage)
+    if not turntable:
+        jobs = plan(str(stage_path), output, views, frames, time=time, **common)
+        return BatchPlan(_with_png_out(jobs, png_out))
+    first = plan(str(stage_path), output, views, None, **common)[0].output
+    layer = first.with_name(f"{first.name.split('.')[0]}.turntable.usda")
+    jobs = plan(str(layer.resolve()), output, views, list(range(turntable)), **common)
+    jobs = [replace(job, time=time) for job in jobs]  # frame numbers, not time codes
+    return BatchPlan(_with_png_out(jobs, png_out), (layer, turntable, views[0].camera))
+
+
+def _with_png_out(jobs: list[RenderJob], png_out: Path | None) -> list[RenderJob]:
+    if png_out is None:
+        return jobs
+    if len(jobs) > 1:
+        raise InputError(
+            "--png-out", "names one file; for a batch use --png (a PNG beside each EXR)"
+        )
+    return [replace(jobs[0], png=png_out)]
+
+
+def render_batch(
+    stage: Path,
+    batch: BatchPlan,
+    *,
+    spp: int,
+    workers: int | None,
+    scheduler: str | None,
+    split: int | None,
+    seed: int,
+    variant: str | None,
+    display: DisplayTransform,
+    on_image,
+) -> dict[str, Any]:
+    """Run a planned farm call (see :mod:`pavonine.pipeline.farm`); returns its report fields."""
+    from pavonine.backend import thread_count
+    from pavonine.pipeline.farm.cluster import farm_installed, open_cluster
+    from pavonine.pipeline.farm.render import FarmError, run_batch
+
+    jobs = batch.jobs
+    if batch.turntable is not None:
         from pavonine.render.turntable import write_turntable_layer
 
-        check_writable(output)
-        if png_out is not None and turntable > 1:
-            raise InputError(
-                "--png-out", "names one file; for a batch use --png (a PNG beside each EXR)"
-            )
-        layer = output.with_name(f"{output.name.split('.')[0]}.turntable.usda")
-        paths = write_turntable_layer(
-            stage_path, layer, turntable, camera=cameras[0] if cameras else None, time=time
+        layer, frames, start = batch.turntable
+        cameras = write_turntable_layer(
+            stage.resolve(), layer, frames, camera=start, time=jobs[0].time
         )
-        stage_path = layer.resolve()
-        views = [View("", None)]
-        frames = list(range(turntable))
-        jobs = [
-            replace(job, camera=paths[i], time=time)
-            for i, job in enumerate(
-                plan(
-                    str(stage_path),
-                    output,
-                    views,
-                    frames,
-                    resolution=size,
-                    png=png,
-                    variance=variance,
-                )
-            )
-        ]
-    else:
-        if products or all_products:
-            views = product_views(stage_path, products, all_products)
-        else:
-            views = [View(c.rsplit("/", 1)[-1], c) for c in cameras] or [View("", None)]
-        jobs = plan(
-            str(stage_path),
-            output,
-            views,
-            frames,
-            time=time,
-            resolution=size,
-            png=png,
-            variance=variance,
-        )
-    if png_out is not None:
-        if len(jobs) > 1:
-            raise InputError(
-                "--png-out", "names one file; for a batch use --png (a PNG beside each EXR)"
-            )
-        jobs = [replace(jobs[0], png=png_out)]
-    for job in jobs:
-        for path in (job.output, job.png, job.variance):
-            if path is not None:
-                check_writable(path)
-
+        jobs = [replace(job, camera=cameras[i % frames]) for i, job in enumerate(jobs)]
     if scheduler is None and workers is None:
         workers = default_workers(len(jobs), split)
         if workers and not farm_installed():
             log.info("rendering in this process: local Dask workers need the [farm] extra")
             workers = 0
     use_cluster = scheduler is not None or (workers or 0) > 0
-
-    def show(record) -> None:
-        written = " + ".join(
-            str(p) for p in (record["exr"], record["png"], record["variance"]) if p
-        )
-        w, h = record["resolution"]
-        say(
-            f"{written}: {w}×{h}, {record['spp']} spp"
-            + (f" in {record['shards']} shards" if record["shards"] > 1 else "")
-        )
-        for message in record["warnings"]:
-            log.warning("%s", message)
-
+    options = dict(spp=spp, seed=seed, variant=variant, display=display, on_image=on_image)
     try:
         if use_cluster:
             with open_cluster(workers, scheduler, threads=thread_count()) as cluster:
                 shards = split or (cluster.workers if len(jobs) == 1 else 1)
                 report = run_batch(
-                    jobs,
-                    spp=spp,
-                    seed=seed,
-                    shards=shards,
-                    variant=variant,
-                    display=display,
-                    cluster=cluster,
-                    progress=show_progress(),
-                    on_image=show,
+                    jobs, shards=shards, cluster=cluster, progress=show_progress(), **options
                 )
         else:
-            report = run_batch(
-                jobs,
-                spp=spp,
-                seed=seed,
-                shards=split or 1,
-                variant=variant,
-                display=display,
-                progress=show_progress(),
-                on_image=show,
-            )
+            report = run_batch(jobs, shards=split or 1, progress=show_progress(), **options)
     except FarmError as exc:
         click.echo(f"error: farm: {exc}", err=True)
         raise SystemExit(1) from None
@@ -228,19 +181,10 @@ def render_batch(
     say(
         f"{len(report.images)} image(s), {len(report.tasks)} task(s) {where}, {report.seconds:.1f} s"
     )
-    warnings = sorted({w for image in report.images for w in image["warnings"]})
-    emit_json(
-        json_target,
-        {
-            "images": report.images,
-            "spp": spp,
-            "seed": seed,
-            "variant": report.images[0]["variant"] if report.images else variant,
-            "seconds": round(report.seconds, 3),
-            "display": asdict(display) if any(i["png"] for i in report.images) else None,
-            "warnings": warnings,
-            "workers": report.workers,
-            "scheduler": report.scheduler,
-            "tasks": report.tasks,
-        },
-    )
+    return {
+        "images": report.images,
+        "seconds": round(report.seconds, 3),
+        "workers": report.workers,
+        "scheduler": report.scheduler,
+        "tasks": report.tasks,
+    }

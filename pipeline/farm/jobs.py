@@ -1,11 +1,19 @@
-"""Render jobs: frame ranges, cameras, RenderProducts and turntables → one image each, and the
+"""Render jobs: RenderProducts, cameras, frame ranges and turntables → one image each, and the
 file names they are written to.
 
-Names (``docs/farm.md``): one image keeps ``-o OUT.exr``. Several frames are numbered
-``OUT.####.exr``, the time code zero-padded to four digits (``OUT.0012.exr``, ``OUT.-003.exr``);
-``OUT`` may carry the ``####`` itself (``shot.####.beauty.exr``). Several cameras or products add
-their name before the number (``OUT.CamB.0012.exr``). The variance of an image, when asked for,
-is ``….variance.exr`` beside it, and its display PNG ``….png``.
+Names (``docs/render.md``, ``docs/farm.md``), one rule for every image of a call
+(:func:`view_outputs`, then :func:`output_name` per frame):
+
+* the first view (RenderProduct, or camera) is written to ``-o OUT.exr``; without ``-o`` to its
+  product's ``productName`` when that names an ``.exr``, else ``STAGE.exr`` here;
+* every other view to its ``productName`` beside the first (without ``-o``), else
+  ``OUT.<name>.exr`` (its product or camera prim's name; ``_1``, ``_2`` … if that is taken);
+* frames are numbered ``….####.exr``, the time code zero-padded to four digits
+  (``OUT.0012.exr``, ``OUT.-003.exr``, ``OUT.Wide.0012.exr``); ``OUT`` may carry the ``####``
+  itself (``shot.####.beauty.exr``).
+
+The variance of an image, when asked for, is ``….variance.exr`` beside it, and its display PNG
+``….png``.
 """
 
 from __future__ import annotations
@@ -47,7 +55,8 @@ class RenderJob:
 
     stage: str  # absolute path (workers read it from shared storage)
     output: Path  # the EXR
-    camera: str | None = None
+    camera: str | None = None  # overrides the product's camera
+    product: str | None = None  # the RenderProduct prim (None: the stage has none)
     time: float | None = None
     resolution: tuple[int, int] | None = None
     label: str = ""  # camera/product name, frame number: what distinguishes it in the batch
@@ -89,16 +98,42 @@ def output_name(base: Path, view: str | None, frame: int | None) -> Path:
 
 @dataclass(frozen=True)
 class View:
-    """A camera (or a RenderProduct's camera and resolution) to render through."""
+    """What one image looks through: a RenderProduct (its camera, resolution and RenderVars)
+    and/or a camera overriding the product's."""
 
-    name: str
-    camera: str | None
-    resolution: tuple[int, int] | None = None
+    name: str  # the product's or camera's prim name ("" for a stage without products)
+    camera: str | None = None
+    product: str | None = None
+    product_name: str = ""  # the product's ``productName``
+
+
+def _product_file(view: View) -> Path | None:
+    """A view's ``productName`` when it names an EXR file."""
+    name = view.product_name
+    return Path(name) if name and name.lower().endswith(".exr") else None
+
+
+def view_outputs(stage: str | Path, output: Path | None, views: list[View]) -> list[Path]:
+    """The EXR of each view at one time (module docstring): ``-o`` (or the first's productName,
+    else STAGE.exr) for the first; the others' productName (without ``-o``) or
+    ``OUT.<name>.exr`` beside it, never twice the same."""
+    first = output or _product_file(views[0]) or Path(Path(stage).stem + ".exr")
+    paths = [first]
+    for view in views[1:]:
+        named = None if output is not None else _product_file(view)
+        label = view.name or "view"
+        options = [first.parent / named.name] if named else []
+        options.append(output_name(first, label, None))
+        candidate, n = next((c for c in options if c not in paths), None), 1
+        while candidate is None or candidate in paths:
+            candidate, n = output_name(first, f"{label}_{n}", None), n + 1
+        paths.append(candidate)
+    return paths
 
 
 def plan(
     stage: str,
-    output: Path,
+    output: Path | None,
     views: list[View],
     frames: list[int] | None,
     *,
@@ -106,13 +141,16 @@ def plan(
     resolution: tuple[int, int] | None = None,
     png: bool = False,
     variance: bool = False,
+    named_after: str | Path | None = None,
 ) -> list[RenderJob]:
-    """Every image of a batch: each view at each frame (or at ``time``)."""
+    """Every image of a call: each view at each frame (or at ``time``). Outputs are named after
+    ``named_after`` (default ``stage``) when there is no ``-o``."""
     jobs = []
+    bases = view_outputs(named_after or stage, output, views)
     label_views = len(views) > 1
-    for view in views:
+    for view, base in zip(views, bases, strict=True):
         for frame in frames if frames is not None else [None]:
-            exr = output_name(output, view.name if label_views else None, frame)
+            exr = output_name(base, None, frame)
             label = " ".join(
                 part
                 for part in (
@@ -126,8 +164,9 @@ def plan(
                     stage=stage,
                     output=exr,
                     camera=view.camera,
+                    product=view.product,
                     time=float(frame) if frame is not None else time,
-                    resolution=resolution or view.resolution,
+                    resolution=resolution,
                     label=label or exr.name,
                     png=sibling(exr, ".png") if png else None,
                     variance=variance_path(exr) if variance else None,
@@ -135,7 +174,7 @@ def plan(
             )
     names = [job.output for job in jobs]
     if len(set(names)) != len(names):
-        raise InputError("--output", "two images of this batch would get the same file name")
+        raise InputError("--output", "two images of this call would get the same file name")
     return jobs
 
 

@@ -1,4 +1,4 @@
-"""``pavonine render`` options for batches: frames, turntables, products, Dask."""
+"""``pavonine render`` options beyond one image: products, frames, turntables, Dask."""
 
 from __future__ import annotations
 
@@ -6,19 +6,15 @@ import click
 
 
 def farm_options(command):
-    """Add the batch and cluster options to a click command (``pavonine render``)."""
+    """Add the product, batch and cluster options to a click command (``pavonine render``)."""
     options = [
         click.option(
             "--product",
             "products",
             metavar="PRIM",
             multiple=True,
-            help="Render this RenderProduct (its camera and resolution); repeatable.",
-        ),
-        click.option(
-            "--all-products",
-            is_flag=True,
-            help="Render every RenderProduct of the stage's RenderSettings.",
+            help="Render this RenderProduct (its prim path, or its name) [default: every product "
+            "of the stage's RenderSettings]; repeatable.",
         ),
         click.option(
             "--frames",

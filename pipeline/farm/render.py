@@ -79,6 +79,7 @@ def make_tasks(
                     spp=count,
                     seed=shard_seed(seed, k),
                     camera=job.camera,
+                    product=job.product,
                     time=job.time,
                     resolution=job.resolution,
                     moments=moments,
@@ -95,15 +96,21 @@ def make_tasks(
 def write_image(
     job: RenderJob, parts: list[RenderShard], seed: int, display: DisplayTransform | None = None
 ) -> dict[str, Any]:
-    """Merge a job's shards and write its EXR (+ PNG, + variance) atomically; returns its record."""
-    import contextlib
+    """Merge a job's shards and write its EXR (+ PNG, + variance) atomically; returns its record.
 
-    from pavonine.pipeline.errors import atomic_path
-    from pavonine.render.imageio import write_exr, write_png
+    A product's AOV layers are merged like the beauty: the sample-weighted mean of the shards'.
+    """
+    from pavonine.render.imageio import RenderFiles, write_renders
 
     parts = sorted(parts, key=lambda s: s.shard)
     samples = [p.spp for p in parts]
     rgb = merge_means([p.rgb for p in parts], samples)
+    layers = None
+    if parts[0].layers is not None:
+        layers = [
+            (channels, merge_means([p.layers[i][1] for p in parts], samples))
+            for i, (channels, _) in enumerate(parts[0].layers)
+        ]
     metadata = dict(parts[0].metadata)
     metadata.update(
         spp=int(sum(samples)),
@@ -118,21 +125,17 @@ def write_image(
     variance = None
     if job.variance is not None:
         variance = merge_variances([p.variance for p in parts], samples)
-    with contextlib.ExitStack() as stack:
-        exr_tmp = stack.enter_context(atomic_path(job.output))
-        png_tmp = stack.enter_context(atomic_path(job.png)) if job.png else None
-        var_tmp = stack.enter_context(atomic_path(job.variance)) if job.variance else None
-        write_exr(exr_tmp, rgb, metadata)
-        if png_tmp is not None:
-            write_png(png_tmp, rgb, display)
-        if var_tmp is not None:
-            write_exr(var_tmp, variance, {**metadata, "quantity": "variance of the mean"})
+    png = job.png if parts[0].has_beauty else None
+    write_renders(
+        [RenderFiles(job.output, rgb, metadata, png, layers, job.variance, variance)], display
+    )
     return image_record(
         metadata,
         exr=job.output,
-        png=job.png,
+        png=png,
         variance=job.variance,
         label=job.label,
+        channels=[c for names, _ in layers for c in names] if layers else ["R", "G", "B"],
         shards=len(parts),
         workers=metadata["workers"],
         warnings=sorted({w for p in parts for w in p.warnings}),
@@ -146,6 +149,7 @@ def image_record(
     png=None,
     variance=None,
     label: str = "",
+    channels: list[str] | tuple[str, ...] = ("R", "G", "B"),
     shards: int = 1,
     workers: list[str] | tuple[str, ...] = (),
     warnings: list[str] | tuple[str, ...] = (),
@@ -162,6 +166,8 @@ def image_record(
         "resolution": metadata.get("resolution"),
         "spp": int(metadata["spp"]),
         "variant": metadata.get("variant"),
+        "product": metadata.get("product"),
+        "channels": list(channels),
         "shards": shards,
         "workers": list(workers),
         "warnings": list(warnings),

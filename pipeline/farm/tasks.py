@@ -47,6 +47,7 @@ class RenderTask:
     spp: int
     seed: int
     camera: str | None = None
+    product: str | None = None  # the RenderProduct prim (its resolution, RenderVars)
     time: float | None = None
     resolution: tuple[int, int] | None = None
     moments: bool = False
@@ -70,11 +71,15 @@ class RenderShard:
     warnings: list[str]
     worker: str
     seconds: dict[str, float] = field(default_factory=dict)
+    #: the product's EXR layers (channel names, pixels), beauty included; ``None``: ``rgb`` alone
+    layers: list[tuple[tuple[str, ...], np.ndarray]] | None = None
+    has_beauty: bool = True  # the layers hold the beauty (a display PNG makes sense)
 
     @property
     def nbytes(self) -> int:
         """Bytes of pixel data sent back to the client."""
-        return int(self.rgb.nbytes + (0 if self.variance is None else self.variance.nbytes))
+        pixels = [self.rgb, self.variance, *(p for _, p in self.layers or [])]
+        return int(sum(p.nbytes for p in pixels if p is not None))
 
 
 def worker_name() -> str:
@@ -145,6 +150,7 @@ def render_task(task: RenderTask) -> RenderShard:
                 resolution=task.resolution,
                 seed=task.seed,
                 camera=task.camera,
+                product=task.product,
                 time=task.time,
                 variant=task.variant,
                 moments=task.moments,
@@ -161,7 +167,17 @@ def render_task(task: RenderTask) -> RenderShard:
         list(result.warnings),
         worker_name(),
         {"hash": hashed - start, "render": done - hashed, "task": done - start},
+        layers=_extra_layers(result),
+        has_beauty=result.has_beauty,
     )
+
+
+def _extra_layers(result) -> list[tuple[tuple[str, ...], np.ndarray]] | None:
+    """A product's layers when it has more than the plain RGB beauty (``None`` otherwise)."""
+    layers = result.exr_layers()
+    if len(layers) == 1 and tuple(layers[0][0]) == ("R", "G", "B") and result.has_beauty:
+        return None
+    return [(tuple(channels), pixels) for channels, pixels in layers]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,108 @@
+"""UsdLux lights → Mitsuba emitters, one translator per light family.
+
+* :mod:`.distant` — ``DistantLight`` (and the default sun and sky);
+* :mod:`.dome` — ``DomeLight`` / ``DomeLight_1`` (pole axis, latlong textures);
+* :mod:`.area` — ``SphereLight`` with a radius, ``RectLight``, ``DiskLight``, ``CylinderLight``;
+* :mod:`.shaping` — point-like ``SphereLight`` → ``point``/``spot`` (``ShapingAPI`` cones, focus);
+* :mod:`.common` — radiance, attribute reading and the audit that warns about every UsdLux
+  attribute no translator honoured (from USD's schema registry, so new attributes are covered).
+
+``MeshLightAPI`` meshes are emitters the delegate builds on the mesh itself
+(:func:`mesh_light_radiance`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdLux
+
+from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.lights import area, distant, dome, shaping
+from pavonine.render.lights.common import (
+    LightReader,
+    audit,
+    cone_has_no_effect,
+    cone_solid_angle,
+)
+from pavonine.render.lights.common import radiance as _radiance
+from pavonine.render.lights.distant import default_lights, distant_light
+
+__all__ = [
+    "cone_solid_angle",
+    "default_lights",
+    "distant_light",
+    "is_light",
+    "mesh_light_radiance",
+    "radiance",
+    "translate_light",
+]
+
+SUPPORTED = (
+    "DistantLight",
+    "DomeLight",
+    "DomeLight_1",
+    "SphereLight",
+    "RectLight",
+    "DiskLight",
+    "CylinderLight",
+)
+NO_EMISSION = {
+    "PortalLight": "PortalLight only guides a dome light's sampling, which Mitsuba does not need; ignored",
+}
+
+
+def is_light(prim: Usd.Prim) -> bool:
+    """True for any UsdLux light (boundable or not)."""
+    return prim.HasAPI(UsdLux.LightAPI)
+
+
+def radiance(prim: Usd.Prim, time: Usd.TimeCode) -> np.ndarray:
+    """``intensity · 2^exposure · color · blackbody(T)`` (linear Rec.709), before normalisation."""
+    return _radiance(LightReader(prim, time, Diagnostics()))
+
+
+def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> np.ndarray:
+    """A ``MeshLightAPI`` mesh's radiance; its other UsdLux attributes are audited (warned)."""
+    reader = LightReader(prim, time, diag)
+    L = _radiance(reader)
+    reader.honour("inputs:normalize")  # the delegate divides by the mesh's world area
+    cone_has_no_effect(reader, 90.0)
+    audit(reader)
+    return L
+
+
+def translate_light(
+    prim: Usd.Prim,
+    world_usd: np.ndarray,
+    time: Usd.TimeCode,
+    diag: Diagnostics,
+    scene_center: np.ndarray,
+    scene_radius: float,
+) -> dict | None:
+    """The Mitsuba scene-dict entry of one light, or ``None`` (with a warning) if unsupported."""
+    kind = prim.GetTypeName()
+    reader = LightReader(prim, time, diag)
+    if kind in NO_EMISSION:
+        reader.warn(NO_EMISSION[kind])
+        return None
+    if kind not in SUPPORTED:
+        reader.warn(f"{kind or 'light'} is not supported by the Mitsuba delegate; skipped")
+        return None
+    if kind == "DistantLight":
+        entry = distant.translate(reader, world_usd, scene_center, scene_radius)
+    elif kind in ("DomeLight", "DomeLight_1"):
+        entry = dome.translate(reader, world_usd)
+    elif kind == "SphereLight":
+        radius = reader.number("inputs:radius", 0.5)
+        if bool(reader.value("treatAsPoint", False)) or radius <= 0.0:
+            entry = shaping.point(reader, world_usd, radius)
+        else:
+            entry = area.sphere(reader, world_usd, radius)
+    elif kind == "RectLight":
+        entry = area.rect(reader, world_usd)
+    elif kind == "DiskLight":
+        entry = area.disk(reader, world_usd)
+    else:
+        entry = area.cylinder(reader, world_usd)
+    audit(reader)
+    return entry

@@ -1,0 +1,92 @@
+"""Progressive rendering in passes: the per-pass seeds, the lane budget, per-pixel moments.
+
+Passes use seeds ``seed · 65537 + i`` and are averaged; the same seed gives the same image. With
+``moments`` the image is rendered in at least min(spp, 16) passes and the per-pixel variance of the
+final estimate is ``s² / P``, ``s²`` the unbiased variance of the P pass means (in linear Rec.709,
+so exact for the RGB that is reported; Mitsuba's ``moment`` integrator would give XYZ moments).
+"""
+
+from __future__ import annotations
+
+import gc
+from collections.abc import Callable
+
+import numpy as np
+
+LANES_PER_PASS = 1 << 22  # samples in flight per pass (memory bound of the LLVM wavefront)
+MIN_MOMENT_PASSES = 16
+SEED_STRIDE = 65537
+
+
+def render_passes(
+    scene,
+    sensor: int,
+    integrator,
+    spp: int,
+    seed: int,
+    film_size: tuple[int, int],
+    width: int,
+    moments: bool,
+    advance: Callable[[int], None],
+) -> tuple[np.ndarray, np.ndarray | None, int]:
+    """(mean H×W×C image, variance of its first three channels or ``None``, passes)."""
+    import mitsuba as mi
+
+    film_width, height = film_size
+    spp_pass = samples_per_pass(spp, film_width * height, moments)
+    passes = spp // spp_pass
+    resample = pixel_aspect_resampler(film_width, width)
+    total = total_sq = None
+    for index in range(passes):
+        pass_seed = (seed * SEED_STRIDE + index) & 0xFFFFFFFF
+        image = render_pass(mi, scene, sensor, integrator, spp_pass, pass_seed)
+        if resample is not None:
+            image = np.einsum("jk,ikc->ijc", resample, image)
+        total = image if total is None else total + image
+        if moments:
+            beauty = image[..., :3]
+            total_sq = beauty * beauty if total_sq is None else total_sq + beauty * beauty
+        advance(spp_pass)
+    mean = total / passes
+    variance = None
+    if total_sq is not None:
+        sample_var = np.maximum(total_sq / passes - mean[..., :3] ** 2, 0.0) * passes / (passes - 1)
+        variance = (sample_var / passes).astype(np.float32)
+    return mean.astype(np.float32), variance, passes
+
+
+def render_pass(mi, scene, sensor: int, integrator, spp: int, seed: int) -> np.ndarray:
+    """One ``mi.render`` pass as H×W×C float64, with Python's cyclic garbage collector paused.
+
+    Dr.Jit traces every registered BSDF instance when it records a virtual call; a Python-defined
+    BSDF (the feather) of an earlier, unreachable scene freed by a collector run *during* that
+    tracing leaves a dangling pointer and Mitsuba segfaults. The caller collects before building
+    the scene, and no collection runs while a pass is traced.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        image = mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed)
+    finally:
+        if enabled:
+            gc.enable()
+    return np.asarray(image, dtype=np.float64)
+
+
+def samples_per_pass(spp: int, pixels: int, moments: bool) -> int:
+    """Largest divisor of ``spp`` within the lane budget (and giving enough passes for moments)."""
+    limit = max(1, LANES_PER_PASS // max(pixels, 1))
+    if moments:
+        limit = min(limit, max(1, spp // MIN_MOMENT_PASSES))
+    return max(d for d in range(1, min(spp, limit) + 1) if spp % d == 0)
+
+
+def pixel_aspect_resampler(film_width: int, width: int) -> np.ndarray | None:
+    """Box-resampling matrix (width × film_width) from square film pixels to wide/narrow pixels."""
+    if film_width == width:
+        return None
+    edges = np.linspace(0.0, film_width, width + 1)
+    lo, hi = edges[:-1, None], edges[1:, None]
+    k = np.arange(film_width)[None, :]
+    overlap = np.clip(np.minimum(hi, k + 1) - np.maximum(lo, k), 0.0, None)
+    return overlap / overlap.sum(axis=1, keepdims=True)

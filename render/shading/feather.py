@@ -1,0 +1,74 @@
+"""``PavonineFeatherAPI`` materials → the spectral feather BSDF (:mod:`pavonine.render.feather_bsdf`).
+
+The only place, with :func:`is_feather_material`, where shading knows about feathers. Parameters
+and the six maps come from :mod:`pavonine.schemas.authoring`; each map is read through
+:func:`pavonine.asset_io.local_file` (maps inside ``.usdz`` packages work), and a map that cannot
+be read gets one warning and the map's neutral value. With ``PAVONINE_IGNORE_FEATHER_SCHEMA=1``
+in the environment feather materials render their UsdPreviewSurface instead, as a viewer that
+knows nothing of Pavonine would. The feather's uv and barb-tangent primvars are read under their
+legacy names (``pavonine:featherUV``, ``pavonine:barbTangent``) on meshes that only carry those.
+"""
+
+from __future__ import annotations
+
+import os
+
+from pxr import UsdShade
+
+from pavonine.asset_io import AssetReadError, local_file
+from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.shading.spec import MaterialSpec
+
+FEATHER_API = "PavonineFeatherAPI"
+FEATHER_UV = "pavonine_featherUV"
+BARB_TANGENT = "pavonine_barbTangent"
+#: Names the converter gave these primvars before they had to be valid shading-language
+#: identifiers (MaterialX ``geompropvalue``); meshes that carry only these are read through them.
+LEGACY_PRIMVARS = {FEATHER_UV: "pavonine:featherUV", BARB_TANGENT: "pavonine:barbTangent"}
+#: Environment variable: ``1`` renders feather materials through their UsdPreviewSurface, as a
+#: viewer that knows nothing of Pavonine would (used to compare the baked preview with the
+#: spectral feather).
+IGNORE_FEATHER_SCHEMA = "PAVONINE_IGNORE_FEATHER_SCHEMA"
+
+
+def is_feather_material(material: UsdShade.Material) -> bool:
+    """True when the material carries the ``PavonineFeatherAPI`` applied schema.
+
+    Reads the composed ``apiSchemas`` (``GetPrimTypeInfo``) so that it works whether or not the
+    schema's plugin is registered in this process (``GetAppliedSchemas`` drops unknown schemas).
+    """
+    return FEATHER_API in material.GetPrim().GetPrimTypeInfo().GetAppliedAPISchemas()
+
+
+def renders_as_feather(material: UsdShade.Material) -> bool:
+    """A feather material rendered spectrally (not with :data:`IGNORE_FEATHER_SCHEMA` set)."""
+    return is_feather_material(material) and os.environ.get(IGNORE_FEATHER_SCHEMA) != "1"
+
+
+def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> MaterialSpec:
+    """The spectral feather BSDF of a ``PavonineFeatherAPI`` material."""
+    from pavonine.render import feather_bsdf as plugin
+    from pavonine.schemas import authoring
+
+    path = str(material.GetPath())
+    params = authoring.read_feather_parameters(material)
+    maps = dict(authoring.resolve_maps(material))
+    for name, file in list(maps.items()):
+        if not file:
+            continue
+        try:
+            maps[name] = local_file(file)
+        except (AssetReadError, OSError):
+            diag.warn(path, f"{name} map {file!r} not found; using the map's neutral value")
+            maps[name] = None
+    plugin.register()
+    bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
+    attributes = {BARB_TANGENT: plugin.BARB_TANGENT_ATTRIBUTE}
+    return MaterialSpec(
+        path,
+        bsdf,
+        FEATHER_UV,
+        attributes,
+        two_sided=True,
+        is_feather=True,
+    )

@@ -1,0 +1,156 @@
+"""MaterialX surfaces (Standard Surface, OpenPBR) and image nodes, approximated by ``principled``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Sdf, UsdShade
+from render_helpers import RES, bind, halves, image, left_right, lum, new_stage, patch, quad, sun
+from render_helpers import render as render_quietly
+
+pytestmark = pytest.mark.render
+RED, BLUE = (0.8, 0.05, 0.05), (0.05, 0.05, 0.8)
+MIDDLE = (slice(12, 20), slice(12, 20))
+
+
+def mtlx_material(stage, node_id, path="/Looks/X", **inputs):
+    """A material whose ``mtlx`` surface is the MaterialX node ``node_id`` holding ``inputs``."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr(node_id)
+    for name, value in inputs.items():
+        kind = Sdf.ValueTypeNames.Float
+        if isinstance(value, tuple):
+            kind = Sdf.ValueTypeNames.Color3f
+        shader.CreateInput(name, kind).Set(value)
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material, shader
+
+
+def tiled_image(stage, parent, file, **inputs):
+    node = UsdShade.Shader.Define(stage, f"{parent}/Image")
+    node.CreateIdAttr("ND_tiledimage_color3")
+    node.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(file)
+    for name, value in inputs.items():
+        node.CreateInput(name, Sdf.ValueTypeNames.Float2).Set(value)
+    return node
+
+
+def lit_quad(tmp_path, name):
+    stage = new_stage(tmp_path / f"{name}.usda")
+    sun(stage)
+    return stage, quad(stage)
+
+
+def test_standard_surface_reads_a_tiled_image_into_its_base_colour(tmp_path):
+    stage, mesh = lit_quad(tmp_path, "tiled")
+    material, shader = mtlx_material(
+        stage, "ND_standard_surface_surfaceshader", specular_roughness=1.0, specular=0.0
+    )
+    node = tiled_image(stage, "/Looks/X", image(tmp_path / "halves.exr", halves(RED, BLUE)))
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        node.ConnectableAPI(), "out"
+    )
+    bind(mesh, material)
+    result = render_quietly(stage)
+    assert result.warnings == []
+    left, right = left_right(result.rgb)
+    assert left[0] > 3 * left[2] and right[2] > 3 * right[0]
+    node.CreateInput("uvtiling", Sdf.ValueTypeNames.Float2).Set((2.0, 1.0))  # twice across
+    left, right = left_right(render_quietly(stage).rgb)
+    assert left[2] > 3 * left[0] and right[0] > 3 * right[2]  # u 0.36 → 0.72, u 0.64 → 0.28
+
+
+def test_standard_surface_coat_colour_tints_a_white_metal(tmp_path):
+    stage, mesh = lit_quad(tmp_path, "brass")
+    material, shader = mtlx_material(
+        stage,
+        "ND_standard_surface_surfaceshader",
+        base_color=(1.0, 1.0, 1.0),
+        metalness=1.0,
+        specular_roughness=0.5,
+        coat=1.0,
+        coat_roughness=0.5,
+        coat_color=(0.9, 0.6, 0.2),
+    )
+    bind(mesh, material)
+    result = render_quietly(stage)
+    tinted = patch(result.rgb, *MIDDLE)
+    assert result.warnings == [] and tinted[0] > 2.5 * tinted[2]
+    shader.GetInput("coat").Set(0.0)  # no coat: the white metal is grey
+    plain = patch(render_quietly(stage).rgb, *MIDDLE)
+    assert plain[0] == pytest.approx(plain[2], rel=0.1) and lum(plain) > lum(tinted)
+
+
+def test_open_pbr_opacity_and_emission(tmp_path):
+    stage, mesh = lit_quad(tmp_path, "openpbr")
+    material, shader = mtlx_material(
+        stage, "ND_open_pbr_surface_surfaceshader", base_color=(0.8, 0.8, 0.8)
+    )
+    bind(mesh, material)
+    assert lum(patch(render_quietly(stage).rgb, *MIDDLE)) > 0.3
+    shader.CreateInput("geometry_opacity", Sdf.ValueTypeNames.Float).Set(0.0)
+    assert lum(patch(render_quietly(stage).rgb, *MIDDLE)) < 1e-3  # fully cut out
+    dark = new_stage(tmp_path / "glow.usda")  # no lights: only the emission is seen
+    glowing = quad(dark)
+    material, _ = mtlx_material(
+        dark,
+        "ND_open_pbr_surface_surfaceshader",
+        emission_luminance=2.0,
+        emission_color=(1.0, 0.5, 0.25),
+    )
+    bind(glowing, material)
+    glow = patch(render_quietly(dark).rgb, *MIDDLE)
+    np.testing.assert_allclose(glow, [2.0, 1.0, 0.5], rtol=0.1)
+
+
+def test_untranslated_materialx_inputs_are_warned_by_name(tmp_path):
+    stage, mesh = lit_quad(tmp_path, "warned")
+    material, _ = mtlx_material(
+        stage,
+        "ND_standard_surface_surfaceshader",
+        subsurface=0.5,
+        thin_film_thickness=300.0,
+        coat_IOR=1.5,  # its default: not warned
+        wobble=1.0,
+    )
+    bind(mesh, material)
+    warnings = render_quietly(stage, resolution=RES).warnings
+    surface = "/Looks/X/Surface"
+    assert any(w.startswith(f"{surface}: subsurface is not translated") for w in warnings)
+    assert any(w.startswith(f"{surface}: thin_film_thickness is not translated") for w in warnings)
+    assert not any("coat_IOR" in w for w in warnings)
+    assert (
+        f"{surface}: input 'wobble' is not an input of ND_standard_surface_surfaceshader; ignored"
+        in warnings
+    )
+
+
+def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
+    from pxr import Usd
+
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.materials import translate_material
+
+    stage = new_stage(tmp_path / "others.usda")
+    gltf, _ = mtlx_material(stage, "ND_gltf_pbr_surfaceshader", "/Looks/Gltf")
+    material, shader = mtlx_material(stage, "ND_standard_surface_surfaceshader")
+    multiply = UsdShade.Shader.Define(stage, "/Looks/X/Multiply")
+    multiply.CreateIdAttr("ND_multiply_color3")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        multiply.ConnectableAPI(), "out"
+    )
+    diag = Diagnostics()
+    with pytest.warns(UserWarning):
+        grey = translate_material(gltf, Usd.TimeCode.Default(), diag)
+        spec = translate_material(material, Usd.TimeCode.Default(), diag)
+    assert grey.key == "__default_grey"
+    assert (
+        "/Looks/Gltf: surface shader 'ND_gltf_pbr_surfaceshader' is not supported; "
+        "rendering grey diffuse" in diag.messages
+    )
+    assert any(
+        m.startswith("/Looks/X/Multiply: shader 'ND_multiply_color3' feeding")
+        for m in diag.messages
+    )
+    assert spec.bsdf["base_color"] == {"type": "rgb", "value": pytest.approx([0.8, 0.8, 0.8])}
