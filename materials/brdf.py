@@ -159,8 +159,12 @@ def structural_brdf(
     cos_d = ops.minimum(ops.maximum(ix * hx + iy * hy + iz * hz, 0.0), 1.0)
 
     r_long = axis_reflectance(constants, table, wavelength_nm, cos_d, long_stack, ops)
-    r_short = axis_reflectance(constants, table, wavelength_nm, cos_d, short_stack, ops)
-    reflectance = barbule.orientation_blend(r_long, r_short, orientation_weight(hx, hy, hz, ops))
+    if getattr(table, "shared_axes", False):
+        reflectance = r_long  # one structure along both axes: Eq. 7 blends two equal values
+    else:
+        r_short = axis_reflectance(constants, table, wavelength_nm, cos_d, short_stack, ops)
+        weight = orientation_weight(hx, hy, hz, ops)
+        reflectance = barbule.orientation_blend(r_long, r_short, weight)
 
     sigma_x = barbule.along_sigma(
         constants.block_sigma, constants.rod_length_nm, wavelength_nm, ops

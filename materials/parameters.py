@@ -375,17 +375,52 @@ FREYER_2020_CLASSES = (
 )
 
 
-def _freyer_class(region: str) -> OcellarClass:
+#: Gradation of the literature preset (docs/model.md, "Gradation in freyer2020"). Each region's
+#: measured structure sits at the middle of the gradation map (t = ½); its black (t = 0) and
+#: white (t = 1) ends are the same structure uniformly scaled by ``1 ∓ FREYER_2020_SIZE_SPREAD``:
+#: lattice constants (layer interval ``a``, rod spacing ``b``), melanosome and air-channel
+#: diameters and cortex together, the layer count unchanged. Zi et al. 2003 (PNAS 100:12576):
+#: peacock barbules tune their colour by the lattice constant and their purity (mixed colours) by
+#: the number of periods; Freyer & Stavenga 2020: the layer count sets the number of reflectance
+#: peaks, so it stays a property of the region, and slight size variations shift the bands.
+#: ±3 % is about 5 nm on the lattice constants (140–195 nm), below half the step between the
+#: nearest measured regions (185 → 195 nm, 5 %), so both ends keep the region's named colour.
+FREYER_2020_SIZE_SPREAD = 0.03
+
+
+def freyer_class(region: str, spread: float = FREYER_2020_SIZE_SPREAD) -> OcellarClass:
+    """The ocellar class of one Freyer & Stavenga 2020 region (:data:`FREYER_2020_REGIONS`):
+    the measured structure at gradation ½, scaled by ``1 − spread`` at the black end and
+    ``1 + spread`` at the white end (both axes alike). Every overlap rule of
+    :class:`~pavonine.materials.lattice.RodLattice` compares lengths, so a uniform scale keeps
+    each end as valid as the measured structure."""
+    if region not in FREYER_2020_REGIONS:
+        raise ParameterError(
+            "region", f"unknown region {region!r}; known: {sorted(FREYER_2020_REGIONS)}"
+        )
+    if not 0.0 <= spread < 1.0:
+        raise ParameterError("spread", f"must lie in [0, 1), got {spread}")
     a, b, c, dm, da, nm = FREYER_2020_REGIONS[region]
-    stack = LayerStack(a / 1000, dm / 2000, nm, b / 1000, da / 1000)
-    return OcellarClass(long=(stack, stack), short=(stack, stack), cortex=(c / 1000, c / 1000))
+    ends = []
+    for scale in (1.0 - spread, 1.0 + spread):
+        nm_to_um = scale / 1000.0
+        ends.append(
+            (
+                LayerStack(a * nm_to_um, dm * nm_to_um / 2, nm, b * nm_to_um, da * nm_to_um),
+                c * nm_to_um,
+            )
+        )
+    (black, black_cortex), (white, white_cortex) = ends
+    return OcellarClass(
+        long=(black, white), short=(black, white), cortex=(black_cortex, white_cortex)
+    )
 
 
 PRESETS: dict[str, FeatherParameters] = {
     "paper-table1": FeatherParameters(classes=TABLE1),
     # Freyer & Stavenga 2020: measured eye-feather structure, literature melanin and keratin.
     "freyer2020": FeatherParameters(
-        classes=tuple(_freyer_class(region) for region in FREYER_2020_CLASSES),
+        classes=tuple(freyer_class(region) for region in FREYER_2020_CLASSES),
         interference="physical",
         lattice="rectangular",
     ),

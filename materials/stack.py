@@ -24,6 +24,7 @@ so their matrix is raised to a power (``N`` costs ``log N`` products).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -232,12 +233,30 @@ def structure_reflectance(
     return r_low + (r_high - r_low) * t
 
 
+@functools.lru_cache(maxsize=256)
+def _table_plane(stack, arrangement: str, cortex_um: float, melanin, keratin, grid) -> np.ndarray:
+    """One table entry: the structure's reflectance on the table's (λ, cos θ_inside) grid,
+    float32 in [0, 1]. Cached per structure, so the two axes of a class, and materials sharing a
+    class (the shipped feathers), compute each structure once per process."""
+    lam0, dlam, n_lam, cos0, dcos, n_cos = grid
+    lam = lam0 + dlam * np.arange(n_lam)
+    cos_in = cos0 + dcos * np.arange(n_cos)
+    values = structure_reflectance(
+        stack, arrangement, cortex_um, lam[:, None], cos_in[None, :], melanin, keratin
+    )
+    plane = np.clip(values, 0.0, 1.0).astype(np.float32)
+    plane.flags.writeable = False
+    return plane
+
+
 class StackTable:
     """Physical-mode reflectance of every class, axis and gradation sample, on (λ, cos θ_inside).
 
-    ``values`` is flat, row-major ``[entry, λ, cos]`` with ``entry = (class·2 + axis)·K + k`` and
-    ``K`` gradation samples per axis (1 when the material's gradation ends are equal). Built once
-    per material; :meth:`lookup` interpolates it on NumPy and Dr.Jit alike (the renderer and the
+    ``values`` is flat, row-major ``[entry, λ, cos]`` with ``entry = (class·A + axis)·K + k``,
+    ``K`` gradation samples per axis (1 when the material's gradation ends are equal) and ``A``
+    axes per class: 2, or 1 when every class has the same structure along both axes
+    (:attr:`shared_axes`, as in ``freyer2020``), which halves the lookups. Built once per
+    material; :meth:`lookup` interpolates it on NumPy and Dr.Jit alike (the renderer and the
     analysis model read the same numbers).
     """
 
@@ -257,6 +276,9 @@ class StackTable:
             for axis in AXES
         )
         self.k = 1 if same else TABLE_GRADATIONS
+        #: Every class is one structure along both barbule axes: one entry serves both.
+        self.shared_axes = all(c.long == c.short for c in params.classes)
+        self.axes = 1 if self.shared_axes else 2
         self.keratin_a = float(params.keratin.cauchy_a)
         self.keratin_b = float(params.keratin.cauchy_b)
         if values is None:
@@ -264,26 +286,22 @@ class StackTable:
         self.values = values
 
     def _build(self, params) -> np.ndarray:
-        lam = self.lam0 + self.dlam * np.arange(self.n_lam)
-        cos_in = self.cos0 + self.dcos * np.arange(self.n_cos)
         gradations = np.linspace(0.0, 1.0, self.k) if self.k > 1 else np.zeros(1)
-        out = []
-        for cls in params.classes:
-            for axis in (0, 1):
-                for t in gradations:
-                    stack = cls.at(t)[axis]
-                    out.append(
-                        structure_reflectance(
-                            stack,
-                            params.lattice,
-                            cls.cortex_at(t),
-                            lam[:, None],
-                            cos_in[None, :],
-                            params.melanin,
-                            params.keratin,
-                        )
-                    )
-        return np.clip(np.stack(out), 0.0, 1.0).astype(np.float32).ravel()
+        grid = (self.lam0, self.dlam, self.n_lam, self.cos0, self.dcos, self.n_cos)
+        planes = [
+            _table_plane(
+                cls.at(t)[axis],
+                params.lattice,
+                cls.cortex_at(t),
+                params.melanin,
+                params.keratin,
+                grid,
+            )
+            for cls in params.classes
+            for axis in range(self.axes)
+            for t in gradations
+        ]
+        return np.stack(planes).ravel()
 
     def with_values(self, values) -> StackTable:
         """The same table with its values in another array type (a Dr.Jit buffer)."""
@@ -300,7 +318,7 @@ class StackTable:
 
     def entry(self, ocellar_class, axis: int):
         """First table entry of a class and axis (a float, for ``ops.gather``)."""
-        return (ocellar_class * 2 + axis) * self.k
+        return (ocellar_class * self.axes + min(axis, self.axes - 1)) * self.k
 
     def lookup(self, entry, gradation, wavelength_nm, cos_outside, ops):
         """Reflectance at an outside (air) angle: trilinear in gradation, λ and cos θ_inside."""

@@ -28,9 +28,10 @@ Primvars the feather BSDF reads (:data:`FEATHER_PRIMVARS`); others authored per 
 warning naming them:
 
 ``pavonine:gradationOffset`` (float, neutral 0)
-    added to the gradation map's ``t`` before the clip to [0, 1]: the barbules' stacks move along
-    Table 1 between the class's black and white ends, so the colour varies only within the
-    measured range (the physical bound).
+    added to the gradation map's ``t`` before the clip to [0, 1]: the barbules' stacks move
+    between the class's black and white ends (Table 1's; in ``freyer2020`` the measured region
+    scaled by 0.97 … 1.03), so the colour varies only within the class's range (the physical
+    bound).
 ``pavonine:structuralScale`` (float, neutral 1)
     multiplies the melanin map's structural share ``w`` (clipped to [0, 1]): < 1 is a browner,
     worn feather.

@@ -105,7 +105,7 @@ def test_layout_is_seeded_and_physical():
         ),
         (lambda t: t.replace("seed = 7", "seed = 7\ncolour = 1"), "colour: unknown key"),
         (
-            lambda t: t.replace("gradation_offset = 0.15", "gradation_offset = 0.9"),
+            lambda t: t.replace("gradation_offset = 0.3", "gradation_offset = 0.9"),
             "variation.gradation_offset: must lie in [0, 0.5]",
         ),
         (

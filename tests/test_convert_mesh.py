@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import ndimage
 
 pytest.importorskip(
     "pymeshlab",
@@ -20,8 +21,12 @@ from pavonine.pipeline.convert.atlas import (
     st_flips,
     st_overlap_fraction,
 )
-from pavonine.pipeline.convert.mesh import (
+from pavonine.pipeline.convert.barbs import (
+    away_from_rachis,
     barb_direction_field,
+    sample_direction,
+)
+from pavonine.pipeline.convert.mesh import (
     clip_to_silhouette,
     edge_report,
     grid_mesh,
@@ -119,3 +124,42 @@ def test_barb_direction_follows_the_streaks(degrees):
 def test_barb_direction_falls_back_to_the_shaft_without_streaks():
     field = barb_direction_field(np.full((64, 32), 0.4, np.float32))
     assert np.allclose(field[..., 0], 0) and np.allclose(field[..., 1], 1)
+
+
+def test_barbs_too_fine_to_resolve_are_continued_radially_not_from_the_grain():
+    """An eye: 120 barbs radiate from the centre; within about 0.1 of it they are finer than
+    three texels and the painter draws their mean plus fine grain noise (as pipeline/maps/paint.py
+    does). The field there continues the resolved barbs (radially), whatever the grain does."""
+    size = 512
+    rows, cols = np.mgrid[0:size, 0:size]
+    x, y = (cols + 0.5) / size - 0.5, 0.5 - (rows + 0.5) / size
+    theta, radius = np.arctan2(x, y), np.hypot(x, y)
+    streaks = (0.5 + 0.5 * np.cos(120 * theta)) ** 3
+    resolved = np.clip((2 * np.pi * radius / 120 * size - 2.5) / 2.0, 0.0, 1.0)
+    grain = np.random.default_rng(3).standard_normal((size // 4, size // 4))
+    grain = ndimage.gaussian_filter(np.kron(grain, np.ones((4, 4))), 2.0)  # 4-8 texel features
+    height = 0.8 * (resolved * streaks + (1 - resolved) * 5 / 16) + 0.05 * grain
+    field = barb_direction_field(height.astype(np.float32))
+    radial = np.stack([x, y], axis=-1) / np.maximum(radius, 1e-9)[..., None]
+    error = np.degrees(np.arccos(np.clip(np.abs(np.sum(field * radial, axis=-1)), 0.0, 1.0)))
+    unresolved = (radius > 0.02) & (resolved == 0)
+    assert unresolved.sum() > 1000
+    assert np.percentile(error[unresolved], 95) < 15.0, np.percentile(error[unresolved], 95)
+    ring = (radius > 0.2) & (radius < 0.45)
+    assert np.percentile(error[ring], 95) < 10.0
+
+
+def test_barb_vectors_point_away_from_the_rachis_so_neighbours_agree():
+    """Horizontal barbs beside the eye (radial at heart level) must not alternate between
+    (1, 0) and (-1, 0) from vertex to vertex: a triangle would interpolate them to nothing and
+    draw a line. Oriented away from the rachis, all on one side point the same way."""
+    field = np.zeros((8, 8, 2), np.float32)
+    field[..., 0] = 1.0  # horizontal axes, slightly tilted up or down from texel to texel
+    field[::2, :, 1], field[1::2, :, 1] = 0.05, -0.05
+    field /= np.linalg.norm(field, axis=-1, keepdims=True)
+    v = np.linspace(0.6, 0.8, 40)
+    for u, sign in ((0.2, -1.0), (0.8, 1.0)):
+        uv = np.column_stack([np.full_like(v, u), v])
+        directions = sample_direction(field, uv, away_from_rachis(uv, 0.5, 0.74))
+        assert np.all(np.sign(directions[:, 0]) == sign)
+        assert np.min(directions[1:] @ directions[:-1].T) > 0.9  # neighbours agree

@@ -14,6 +14,7 @@ from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map
 from pavonine.pipeline.maps.paint import (
     KINDS,
     MAP_NAMES,
+    MEASURED_GRADATION,
     angle_degrees,
     angle_grey,
     generate_maps,
@@ -97,6 +98,20 @@ def test_eye_melanin_fades_at_the_edge_and_gradation_rises_to_the_apex(eye):
     assert melanin[row, edge_cols[0]] < 0.5 and melanin[row, edge_cols[-1]] < 0.5
     g = eye["gradation"]
     assert _at(g, 0.5, 0.95) > _at(g, 0.5, 0.7) > _at(g, 0.5, 0.35)
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_gradation_stays_near_the_measured_structure(kind):
+    """The literature preset puts each region's measured structure at t = ½ (docs/model.md,
+    "Gradation in freyer2020"): the maps drift around it from base to apex, and the eye's rings
+    sit within 0.2 of it, so the ocellus keeps its measured colours."""
+    maps = generate_maps(kind, 256, seed=1)
+    g, inside = maps["gradation"], maps["alpha"] > 0.5
+    assert abs(np.median(g[inside]) - MEASURED_GRADATION) < 0.1
+    assert 0.05 < np.ptp(np.percentile(g[inside], [5, 95])) < 0.6  # a drift, not a constant
+    if kind == "eye":
+        rings = inside & (ocellar_class(maps["ocellar"]) >= 2)
+        assert np.all(np.abs(g[rings] - MEASURED_GRADATION) < 0.2)
 
 
 def test_eye_barbs_are_radial_around_the_eye():

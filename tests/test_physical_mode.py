@@ -258,7 +258,7 @@ def test_paper_table1_warns_and_physical_mode_refuses_class4_short():
 def test_freyer2020_preset_is_physical_and_every_class_fits():
     params = preset("freyer2020").validate()
     assert params.interference == "physical" and params.lattice == "rectangular"
-    heart = params.classes[5].long[0]
+    heart = params.classes[5].at(0.5)[0]  # the measured region sits at the map's middle
     assert (heart.interval, heart.spacing, heart.radius * 2, heart.channel, heart.count) == (
         pytest.approx(0.140),
         pytest.approx(0.150),
@@ -266,4 +266,4 @@ def test_freyer2020_preset_is_physical_and_every_class_fits():
         pytest.approx(0.033),
         10,
     )
-    assert params.classes[5].cortex[0] == pytest.approx(0.100)
+    assert params.classes[5].cortex_at(0.5) == pytest.approx(0.100)

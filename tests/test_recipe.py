@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from pavonine.materials.parameters import preset
+from pavonine.materials.parameters import freyer_class, preset
 from pavonine.pipeline.convert.recipe import GeometryOptions, LodTargets, parse_recipe
 from pavonine.pipeline.errors import InputError
 
@@ -183,3 +183,21 @@ def test_physical_mode_keys_reach_the_material(tmp_path):
 def test_physical_mode_errors_name_the_key(tmp_path, extra, key):
     text = MINIMAL.replace('"paper-table1"', '"freyer2020"') + extra
     assert key in str(_error(tmp_path, text))
+
+
+def test_a_class_can_take_a_measured_region_with_the_gradation_rule(tmp_path):
+    text = MINIMAL.replace('"paper-table1"', '"freyer2020"') + (
+        '[material.class.0]\nregion = "blue-green"\n[material.class.0.long]\ncount = 12\n'
+    )
+    params = parse_recipe(_write(tmp_path, text)).material
+    region = freyer_class("blue-green")
+    assert params.classes[0].short == region.short and params.classes[0].cortex == region.cortex
+    assert params.classes[0].long[0].interval == region.long[0].interval  # cells override it
+    assert [s.count for s in params.classes[0].long] == [12, 12]
+
+
+@pytest.mark.parametrize("value", ['"teal"', "3"])
+def test_an_unknown_region_names_the_key(tmp_path, value):
+    text = MINIMAL + f"[material.class.1]\nregion = {value}\n"
+    message = str(_error(tmp_path, text))
+    assert "material.class.1.region: unknown region" in message and "blue-green" in message

@@ -126,7 +126,11 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
     help="Ocellar class of the preset (0 = white … 5 = black).",
 )
 @click.option(
-    "--gradation", type=float, default=0.0, show_default=True, help="0 = black end, 1 = white end."
+    "--gradation",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="0 = black end, 1 = white end (freyer2020: 0.5 = the measured region).",
 )
 @click.option(
     "--interval", type=float, default=None, help="Layer interval d in nm (with --radius, --layers)."

@@ -42,7 +42,12 @@ from pavonine.pipeline.convert.atlas import (
     piece_count,
     st_flips,
 )
-from pavonine.pipeline.maps.io import sample_bilinear
+from pavonine.pipeline.convert.barbs import (
+    away_from_rachis,
+    barb_direction_field,
+    sample_direction,
+)
+from pavonine.pipeline.maps.io import area_reduce, sample_bilinear
 
 #: Smallest fraction of an edge at which the silhouette may cut it (keeps triangles fat).
 _CUT_CLAMP = 0.15
@@ -90,16 +95,6 @@ def _normalise(vectors: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- base vane
-
-
-def _downsample(values: np.ndarray, factor: int) -> np.ndarray:
-    """Box-filter an image by an integer factor (area average), keeping its extent."""
-    if factor <= 1:
-        return values
-    h, w = values.shape
-    ph, pw = (-h) % factor, (-w) % factor
-    padded = np.pad(values, ((0, ph), (0, pw)), mode="edge")
-    return padded.reshape(padded.shape[0] // factor, factor, -1, factor).mean(axis=(1, 3))
 
 
 def grid_mesh(rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:
@@ -229,7 +224,7 @@ def base_vane(
         rows = max(4, round(pitch)) + 1
         cols = max(4, round((rows - 1) * aspect)) + 1
         factor = max(1, int(height / (rows - 1) / 2))
-        filtered = _downsample(alpha, factor)
+        filtered = area_reduce(alpha, factor)
         uv, faces = grid_mesh(rows, cols)
         level = sample_bilinear(filtered, uv).astype(np.float64) - threshold
         uv, faces = clip_to_silhouette(uv, faces, level)
@@ -465,53 +460,6 @@ def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return _normalise(normals)
 
 
-def barb_direction_field(displacement: np.ndarray, max_size: int = 768) -> np.ndarray:
-    """Barb direction per texel from the displacement map's streaks, as a unit 2-D vector
-    ``(du, dv)`` in square-pixel feather units (``u`` right, ``v`` up).
-
-    The streaks run along the barbs, so the barb direction is the eigenvector of the smoothed
-    structure tensor ``J = G_σ * (∇d ∇dᵀ)`` with the *smaller* eigenvalue (the direction of
-    least change). Where the map has no streaks (coherence low) it falls back to the shaft
-    direction ``(0, 1)``. Orientation is an axis: the sign is irrelevant for the angle map.
-    """
-    height, width = displacement.shape
-    factor = max(1, math.ceil(max(height, width) / max_size))
-    d = _downsample(displacement.astype(np.float32), factor)
-    gy_rows, gx = np.gradient(d)
-    gy = -gy_rows  # rows grow downward; v grows upward
-    sigma = max(1.5, 0.006 * d.shape[0])
-    jxx = ndimage.gaussian_filter(gx * gx, sigma)
-    jxy = ndimage.gaussian_filter(gx * gy, sigma)
-    jyy = ndimage.gaussian_filter(gy * gy, sigma)
-    gradient_angle = 0.5 * np.arctan2(2.0 * jxy, jxx - jyy)
-    barb_angle = gradient_angle + np.pi / 2
-    trace = jxx + jyy
-    coherence = np.sqrt((jxx - jyy) ** 2 + 4 * jxy**2) / np.maximum(trace, 1e-12)
-    weight = np.clip((coherence - 0.2) / 0.3, 0.0, 1.0) * (trace > 1e-10)
-    du = weight * np.cos(barb_angle)
-    dv = weight * np.sin(barb_angle) + (1.0 - weight)
-    # Orient toward the apex side so neighbouring texels agree (an axis has no sign).
-    flip = np.where(dv < 0, -1.0, 1.0)
-    field = np.stack([du * flip, dv * flip], axis=-1)
-    return (field / np.linalg.norm(field, axis=-1, keepdims=True)).astype(np.float32)
-
-
-def sample_direction(field: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear lookup of a 2-D axis field at feather-space points, as unit vectors (``dv ≥ 0``).
-
-    An axis has no sign, and the field flips sign where its axis turns through horizontal, so it
-    is interpolated as the doubled angle ``(cos 2φ, sin 2φ)``: interpolating the vectors themselves
-    would average ``v`` and ``−v`` to nothing there and draw a seam.
-    """
-    du, dv = field[..., 0].astype(np.float64), field[..., 1].astype(np.float64)
-    c2 = sample_bilinear(du * du - dv * dv, uv)
-    s2 = sample_bilinear(2.0 * du * dv, uv)
-    phi = 0.5 * np.arctan2(s2, c2)
-    out = np.stack([np.cos(phi), np.sin(phi)], axis=1)
-    out *= np.where(out[:, 1:] < 0.0, -1.0, 1.0)
-    return np.where(np.hypot(c2, s2)[:, None] > 1e-6, out, np.array([[0.0, 1.0]]))
-
-
 def prefilter(values: np.ndarray, spacing_uv: float) -> np.ndarray:
     """Low-pass a map to a mesh whose vertices are ``spacing_uv`` (feather v units) apart,
     so displacement sampled at vertices does not alias (Gaussian, σ = ½ vertex spacing)."""
@@ -641,7 +589,8 @@ def _vane_mesh(geo: FeatherGeometry, refined: RefinedMesh, spacing: float) -> Me
     normal = frame.normal(uv)
     points = base + heights[:, None] * normal
     normals = vertex_normals(points, refined.faces)
-    direction = sample_direction(geo.barb_field, uv)
+    outward = away_from_rachis(uv, frame.aspect, geo.rachis.top)
+    direction = sample_direction(geo.barb_field, uv, outward)
     dpdu, dpdv = frame.derivatives(uv)
     # Field vectors are in square feather units (v = 1 ↔ length): dv/du scale = aspect.
     tangent = dpdu * (direction[:, :1] / frame.aspect) + dpdv * direction[:, 1:2]

@@ -19,11 +19,13 @@ from typing import Any
 from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import (
     AXES,
+    FREYER_2020_REGIONS,
     STACK_QUANTITIES,
     FeatherParameters,
     LayerStack,
     OcellarClass,
     ParameterError,
+    freyer_class,
     preset,
 )
 from pavonine.pipeline.errors import InputError
@@ -241,7 +243,9 @@ def _stack_end(value: Any, end: int) -> Any:
 
 
 def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> FeatherParameters:
-    """``[material.class.<k>.<axis>]`` tables override Table 1 cells: value or [black, white]."""
+    """``[material.class.<k>]`` tables: ``region`` takes a Freyer & Stavenga 2020 region with the
+    freyer2020 gradation rule, then ``cortex`` and ``<axis>`` cells override single cells: a
+    value or [black, white]."""
     classes = list(params.classes)
     for index_key, axes in table.items():
         prefix = f"material.class.{index_key}"
@@ -251,8 +255,17 @@ def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> Feathe
             )
         if not isinstance(axes, dict):
             raise _fail(path, prefix, "expected a table with 'long' and/or 'short'")
-        _check_keys(path, axes, {*AXES, "cortex"}, f"{prefix}.")
+        _check_keys(path, axes, {*AXES, "cortex", "region"}, f"{prefix}.")
         k = int(index_key)
+        if "region" in axes:
+            region = axes["region"]
+            if not isinstance(region, str) or region not in FREYER_2020_REGIONS:
+                raise _fail(
+                    path,
+                    f"{prefix}.region",
+                    f"unknown region {region!r}; known: {', '.join(sorted(FREYER_2020_REGIONS))}",
+                )
+            classes[k] = freyer_class(region)
         per_axis = {axis: getattr(classes[k], axis) for axis in AXES}
         cortex = classes[k].cortex
         if "cortex" in axes:
@@ -263,7 +276,7 @@ def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> Feathe
             for item in items:
                 _number(path, f"{prefix}.cortex", item, positive=False)
             cortex = tuple(float(_stack_end(value, end)) for end in (0, 1))
-        for axis, cells in ((a, c) for a, c in axes.items() if a != "cortex"):
+        for axis, cells in ((a, c) for a, c in axes.items() if a in AXES):
             if not isinstance(cells, dict):
                 raise _fail(path, f"{prefix}.{axis}", "expected a table of interval/radius/count")
             _check_keys(path, cells, set(_STACK_KEYS), f"{prefix}.{axis}.")

@@ -143,3 +143,15 @@ def sample_nearest(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:
     cols = np.clip(np.floor(uv[:, 0] * width), 0, width - 1).astype(np.int64)
     rows = np.clip(np.floor((1.0 - uv[:, 1]) * height), 0, height - 1).astype(np.int64)
     return values[rows, cols].astype(np.float32)
+
+
+def area_reduce(values: np.ndarray, factor: int) -> np.ndarray:
+    """Average ``factor × factor`` blocks of an image (trailing channel axes kept), edges padded
+    by repetition: the box-filtered, smaller map (its extent unchanged)."""
+    if factor <= 1:
+        return values
+    h, w = values.shape[:2]
+    pad = ((0, (-h) % factor), (0, (-w) % factor)) + ((0, 0),) * (values.ndim - 2)
+    padded = np.pad(values, pad, mode="edge")
+    blocks = (padded.shape[0] // factor, factor, padded.shape[1] // factor, factor)
+    return padded.reshape(blocks + values.shape[2:]).mean(axis=(1, 3))

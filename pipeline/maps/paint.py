@@ -9,7 +9,8 @@ row 0 at the top (the feather's apex); see ``docs/pipeline.md`` for every encodi
 alpha          opacity (silhouette), anti-aliased over about one pixel
 ocellar        class ``k`` in 0 (white) … 5 (black) stored as grey ``1 - k/5``; read back as
                ``k = round(5 * (1 - grey))``
-gradation      0 = a class's black end … 1 = its white end (Table 1 "black/white")
+gradation      0 = a class's black end … 1 = its white end (Table 1 "black/white"); painted
+               near ½, the literature preset's measured structure (:data:`MEASURED_GRADATION`)
 angle          barbule long axis relative to its barb, ``grey = (angle_deg mod 180) / 180``
                (counter-clockwise seen from the front); barbules sit 30–40° off the barb
 displacement   barb-streak height, 0 = vane surface, 1 = full height
@@ -177,6 +178,22 @@ def _melanin_fade(
     return np.where(alpha > 0.0, share, floor).astype(np.float32)
 
 
+#: Gradation-map value of a class's measured structure: the literature preset puts each
+#: region's measurement at t = ½ and its size variation at the ends (docs/model.md, "Gradation in
+#: freyer2020"), so the painted maps stay near ½ and drift from base to apex (paper §3.3.3).
+MEASURED_GRADATION = 0.5
+
+
+def _gradation(
+    cv: _Canvas, slope: float, centre_y: float, noise: float, scale: float
+) -> np.ndarray:
+    """Gradation ``½ + slope·(y − centre_y)`` plus noise of amplitude ``noise`` and feature size
+    ``scale``: the measured structure at ``centre_y``, a subtle drift from the feather's base to
+    its apex (paper §3.3.3), clipped to [0, 1]."""
+    drift = MEASURED_GRADATION + slope * (cv.y - centre_y)
+    return np.clip(drift + noise * cv.noise(scale), 0.0, 1.0)
+
+
 def _barbule_angle(
     cv: _Canvas,
     base_deg: float,
@@ -248,7 +265,8 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
         klass = np.where(rho + 0.025 * ring_noise < 1.0, cls, klass)
     klass = np.where(solid > 0, klass, 0)
 
-    gradation = np.clip(_smoothstep(0.30, 0.98, y) + 0.04 * cv.noise(0.08), 0.0, 1.0)
+    # Measured structure at the eye's centre; ±0.1 across the rings, lower at the base.
+    gradation = _gradation(cv, 0.55, cy, 0.04, 0.08)
     angle = _barbule_angle(cv, 32.0, 6.0, cv.noise(0.06), cy, radial_weight)
     grain = cv.noise(0.01)
     displacement = solid * np.clip(0.78 * ridge + 0.12 + 0.05 * grain + 0.05 * edge_noise, 0, 1)
@@ -291,7 +309,7 @@ def _contour_feather(
     ridge = _filtered(ridge, fade)
     downy = 1.0 - _smoothstep(downy_until - 0.08, downy_until + 0.08, y + 0.03 * edge_noise)
     alpha = _fringe(cv, ridge, solid, 0.025 + 0.08 * downy)
-    gradation = np.clip(_smoothstep(0.1, 1.0, y) + 0.05 * cv.noise(0.1), 0.0, 1.0)
+    gradation = _gradation(cv, 0.5, 0.55, 0.04, 0.1)
     angle = _barbule_angle(cv, 34.0, 5.0, cv.noise(0.06), 0.9)
     grain = cv.noise(0.012)
     displacement = solid * np.clip(0.75 * ridge + 0.15 + 0.06 * grain, 0.0, 1.0)
@@ -364,7 +382,7 @@ def _fishtail(cv: _Canvas) -> dict[str, np.ndarray]:
     klass = np.where((opening > 0.3) & (rim < 0.025) & (across > 0.35), 3, klass)
     klass = np.where(solid > 0, klass, 0)
 
-    gradation = np.clip(_smoothstep(0.2, 0.95, y) + 0.05 * cv.noise(0.08), 0.0, 1.0)
+    gradation = _gradation(cv, 0.5, 0.6, 0.04, 0.08)
     angle = _barbule_angle(cv, 33.0, 6.0, cv.noise(0.06), 0.8)  # rachis_length of its recipe
     grain = cv.noise(0.012)
     displacement = solid * np.clip(0.76 * ridge + 0.14 + 0.05 * grain, 0.0, 1.0)
