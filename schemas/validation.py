@@ -314,12 +314,18 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
     import OpenImageIO as oiio
 
     from pavonine.asset_io import local_file
+    from pavonine.limits import check_image_spec, regular_file
+    from pavonine.pipeline.errors import InputError
 
     problems: list[tuple[str, str, object]] = []
     try:
         local = local_file(path)
     except OSError as exc:
         return [(ERROR, "MapMissing", f"cannot read {path}: {exc.strerror or exc}")], None
+    try:
+        regular_file(local, path)  # never open a FIFO or a device: it would block or not end
+    except InputError as exc:
+        return [(ERROR, "MapNotAnImage", str(exc))], None
     inp = oiio.ImageInput.open(local)
     if inp is None:
         message = oiio.geterror() or "unknown format"
@@ -339,6 +345,10 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
             )
         elif min(size) < MIN_MAP_SIZE:
             problems.append((WARN, "MapSize", f"{path} is only {size[0]}x{size[1]} pixels"))
+        try:
+            check_image_spec(path, spec)
+        except InputError as exc:
+            problems.append((ERROR, "MapSize", str(exc)))
         colour = spec.nchannels - (1 if spec.alpha_channel >= 0 else 0)
         if spec.nchannels > 4:
             problems.append(
@@ -348,7 +358,7 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
                     f"{path} has {spec.nchannels} channels; expected 1 (grey) to 4",
                 )
             )
-        elif colour >= 3:
+        elif colour >= 3 and not any(p[0] == ERROR for p in problems):  # never decode a refused map
             pixels = inp.read_image(0, 0, 0, 3, "float")
             if pixels is None:
                 problems.append(

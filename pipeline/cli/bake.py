@@ -9,6 +9,7 @@ import click
 from pavonine.pipeline.cli.options import (
     emit_json,
     json_option,
+    max_pixels_option,
     progress_bar,
     requires,
     say,
@@ -56,6 +57,7 @@ JSON_SCHEMA = {
 )
 @json_option(JSON_SCHEMA)
 @requires("pymeshlab", "MaterialX")
+@max_pixels_option
 @one_line_errors
 def bake(asset: Path, resolution: int, json_target: str | None) -> None:
     """Bake ASSET's feather materials into textures over the st atlas.

@@ -9,10 +9,12 @@ import click
 
 from pavonine.pipeline.cli.baseline import store_options
 from pavonine.pipeline.cli.options import (
+    SEED,
     display_options,
     emit_json,
     json_option,
     junit_option,
+    max_pixels_option,
     progress_bar,
     requires,
     say,
@@ -143,13 +145,14 @@ def report_entries(checks: list[SceneCheck]):
     show_default=True,
     help="Which comparisons must pass.",
 )
-@click.option("--seed", type=int, help="Override the check seed recorded with each baseline.")
+@click.option("--seed", type=SEED, help="Override the check seed recorded with each baseline.")
 @store_options
 @json_option(JSON_SCHEMA)
 @junit_option
 @display_options
 @threads_option
 @requires("mitsuba", "drjit", "flip_evaluator")
+@max_pixels_option
 @one_line_errors
 def check_renders(
     scenes: tuple[str, ...],

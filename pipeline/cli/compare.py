@@ -7,10 +7,12 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
+    FiniteFloat,
     display_options,
     display_overrides,
     emit_json,
     json_option,
+    max_pixels_option,
     output_option,
     say,
     stdout_console,
@@ -113,25 +115,26 @@ def print_results(results: list[ComparisonResult], title: str) -> None:
 )
 @click.option(
     "--significance",
-    type=float,
+    type=FiniteFloat(),
     default=SIGNIFICANCE,
     show_default=True,
     help="stat: family-wise false-alarm probability (Šidák-corrected per test).",
 )
 @click.option(
     "--pass-ratio",
-    type=float,
+    type=FiniteFloat(),
     default=PASS_RATIO,
     show_default=True,
     help="stat: share of tests per block size that must pass.",
 )
 @click.option(
     "--flip-threshold",
-    type=float,
+    type=FiniteFloat(),
     help=f"Mean FLIP above which images differ [default: a baseline folder's calibrated "
     f"threshold, else {FLIP_THRESHOLD}].",
 )
 @display_options
+@max_pixels_option
 @one_line_errors
 def compare(
     test: Path,

@@ -10,6 +10,7 @@ import click
 from pavonine.pipeline.cli.options import (
     emit_json,
     json_option,
+    max_pixels_option,
     output_option,
     progress_bar,
     requires,
@@ -80,6 +81,7 @@ JSON_SCHEMA = {
 )
 @json_option(JSON_SCHEMA)
 @requires("pymeshlab", "xatlas")
+@max_pixels_option
 @one_line_errors
 def convert(
     recipes: tuple[str, ...],

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
+    SEED,
     display_options,
     emit_json,
     json_option,
@@ -112,7 +113,7 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
 )
 @click.option("--resolution", default="512x768", show_default=True, help="Render size WxH.")
 @click.option(
-    "--seed", default=1, show_default=True, type=int, help="Seed for the maps and the render."
+    "--seed", default=1, show_default=True, type=SEED, help="Seed for the maps and the render."
 )
 @display_options
 @threads_option

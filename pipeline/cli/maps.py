@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
+    SEED,
     emit_json,
     json_option,
     output_option,
@@ -46,9 +47,7 @@ JSON_SCHEMA = {
     type=click.IntRange(16, 16384),
     help="Pixels along the feather (map height); the width follows the kind's aspect.",
 )
-@click.option(
-    "--seed", default=0, show_default=True, type=click.IntRange(min=0), help="Seed of the noise."
-)
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of the noise.")
 @click.option(
     "--format",
     "fmt",

@@ -16,10 +16,13 @@ from typing import Any
 import click
 
 from pavonine.pipeline.cli.options import (
+    SEED,
+    FiniteFloat,
     display_options,
     emit_json,
     json_option,
     log,
+    max_pixels_option,
     output_option,
     requires,
     say,
@@ -146,11 +149,15 @@ JSON_SCHEMA = {
 )
 @farm_options
 @click.option(
-    "--time", "time_", type=float, default=None, help="USD time code [default: the stage's start]."
+    "--time",
+    "time_",
+    type=FiniteFloat(),
+    default=None,
+    help="USD time code [default: the stage's start].",
 )
 @click.option(
     "--seed",
-    type=int,
+    type=SEED,
     default=0,
     show_default=True,
     help="Random seed; the same seed gives the same image.",
@@ -160,6 +167,7 @@ JSON_SCHEMA = {
 @threads_option
 @json_option(JSON_SCHEMA)
 @requires("mitsuba", "drjit")
+@max_pixels_option
 @one_line_errors
 def render(
     stage: Path,
