@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import functools
 import math
-import re
 from collections.abc import Callable, Iterable
 
 from pxr import Usd, UsdShade, UsdValidation
@@ -218,27 +217,6 @@ def _check_scalars(prim: Usd.Prim) -> list:
     return errors
 
 
-_FIELD = re.compile(r"^class\[(\d+)\]\.(long|short|cortex)\.?(black|white)?\.?(\w+)?$")
-_NAMED_FIELDS = {
-    "lattice": "pavonine:rodLattice",
-    "melanin": "pavonine:melaninDispersion",
-    "keratin": "pavonine:keratinDispersion",
-}
-
-
-def _attribute_of_field(field: str) -> str:
-    """The schema attribute behind a :class:`ParameterError` field (``class[4].short.black.radius``)."""
-    match = _FIELD.match(field)
-    if not match:
-        return _NAMED_FIELDS.get(field, f"pavonine:{field}")
-    _, axis, _, quantity = match.groups()
-    if axis == "cortex":
-        return authoring.STRUCTURE_ATTRS["cortex"]
-    if quantity in ("spacing", "channel"):
-        return authoring.STRUCTURE_ATTRS[f"{axis}_{quantity}"]
-    return _attr_of(axis, quantity if quantity in ("interval", "count") else "radius")
-
-
 def _check_lattice(prim: Usd.Prim) -> list:
     """The whole material through :meth:`FeatherParameters.validate`: optional per-class arrays,
     dispersive indices, and the rod lattice (an error in the physical mode, a warning per class
@@ -251,7 +229,7 @@ def _check_lattice(prim: Usd.Prim) -> list:
         params.validate()
     except ParameterError as exc:
         message = f"{exc.field}: {exc.reason}"
-        return [_error(prim, exc.kind, message, _attribute_of_field(exc.field))]
+        return [_error(prim, exc.kind, message, authoring.attribute_of_field(exc.field))]
     return [
         _error(prim, "StaggeredRodsOverlap", message, _attr_of(axis, "radius"), WARN)
         for _, axis, message in params.geometry_warnings()

@@ -136,7 +136,10 @@ class PavonineGroup(click.Group):
         except (Interrupted, KeyboardInterrupt):
             click.echo("error: interrupted (Ctrl-C)", err=True)
             sys.exit(EXIT_INTERRUPTED)
-        except click.Abort:
+        except click.Abort as exc:
+            if isinstance(exc.__cause__, KeyboardInterrupt):  # Ctrl-C while click parsed
+                click.echo("error: interrupted (Ctrl-C)", err=True)
+                sys.exit(EXIT_INTERRUPTED)
             click.echo("aborted", err=True)
             sys.exit(1)
         except (InputError, ParameterError) as exc:  # commands use @one_line_errors; the rest

@@ -516,8 +516,9 @@ SEED = click.IntRange(*SEED_RANGE)
 def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
     from pavonine.limits import set_max_pixels
 
-    if value is not None:
-        set_max_pixels(value)
+    # None (not given) leaves $PAVONINE_MAX_PIXELS or the default, read where the budget is
+    # checked; so nothing outlives this command.
+    set_max_pixels(value)
 
 
 def max_pixels_option(func: F) -> F:
@@ -527,12 +528,10 @@ def max_pixels_option(func: F) -> F:
     return click.option(
         "--max-pixels",
         type=click.IntRange(min=1),
-        envvar=MAX_PIXELS_ENV,
-        show_envvar=True,
         expose_value=False,
         is_eager=True,
         callback=_apply_max_pixels,
         metavar="N",
         help=f"Pixel budget of every image read, checked from its header before decoding "
-        f"[default: {DEFAULT_MAX_PIXELS:,}].",
+        f"[default: ${MAX_PIXELS_ENV}, else {DEFAULT_MAX_PIXELS:,}].",
     )(func)
