@@ -290,12 +290,15 @@ def output_option(
     help: str,
 ) -> Callable[[F], F]:
     """``-o/--output PATH``: where the command writes (a ``folder`` or a file), param ``output``."""
+    # No ``default=None`` when there is none: click >= 8.3 takes an explicit None default as a
+    # value, so a required -o would go missing silently (and fail later with a TypeError).
+    extra: dict[str, Any] = {} if default is None else {"default": default}
     return click.option(
         "-o",
         "--output",
         "output",
         type=click.Path(file_okay=not folder, dir_okay=folder, path_type=Path),
-        default=default,
+        **extra,
         required=required,
         show_default=default is not None,
         metavar="DIR" if folder else "FILE",
