@@ -175,7 +175,7 @@ def test_convert_with_a_hostile_map_is_clean(workspace, tmp_path_factory, spec, 
     outcome = run_cli(["convert", str(folder / "r.toml"), "-o", str(folder / "out")], seconds=120)
     assert_clean(outcome, (spec, name))
     if outcome.code != 0:
-        assert f"maps.{name}" in outcome.stderr or "maps.alpha" in outcome.stderr, outcome.stderr
+        assert ": maps." in outcome.stderr, outcome.stderr  # a map's file and field are named
         assert_nothing_left(folder / "out")
 
 

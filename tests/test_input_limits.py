@@ -335,7 +335,7 @@ def test_every_float_option_refuses_nan():
     import click
 
     from pavonine.pipeline.cli import COMMANDS, cli
-    from pavonine.pipeline.cli.options import FiniteFloat
+    from pavonine.pipeline.cli.values import FiniteFloat
 
     ctx = click.Context(cli)
     floats = []

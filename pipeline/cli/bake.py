@@ -9,11 +9,11 @@ import click
 from pavonine.pipeline.cli.options import (
     emit_json,
     json_option,
-    max_pixels_option,
     progress_bar,
     requires,
     say,
 )
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
 
 JSON_SCHEMA = {

@@ -9,7 +9,6 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
-    SEED,
     emit_json,
     json_option,
     progress_bar,
@@ -18,6 +17,7 @@ from pavonine.pipeline.cli.options import (
     stdout_console,
     threads_option,
 )
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.compare.baselines import (
     BASELINE_SETTINGS,
     BASELINES_DIR,

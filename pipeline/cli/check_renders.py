@@ -9,17 +9,16 @@ import click
 
 from pavonine.pipeline.cli.baseline import store_options
 from pavonine.pipeline.cli.options import (
-    SEED,
     display_options,
     emit_json,
     json_option,
     junit_option,
-    max_pixels_option,
     progress_bar,
     requires,
     say,
     threads_option,
 )
+from pavonine.pipeline.cli.values import SEED, max_pixels_option
 from pavonine.pipeline.compare.baselines import (
     BASELINES_DIR,
     SceneCheck,

@@ -7,16 +7,15 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
-    FiniteFloat,
     display_options,
     display_overrides,
     emit_json,
     json_option,
-    max_pixels_option,
     output_option,
     say,
     stdout_console,
 )
+from pavonine.pipeline.cli.values import FiniteFloat, max_pixels_option
 from pavonine.pipeline.compare.methods import (
     FLIP_THRESHOLD,
     METHODS,

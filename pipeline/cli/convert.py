@@ -10,12 +10,12 @@ import click
 from pavonine.pipeline.cli.options import (
     emit_json,
     json_option,
-    max_pixels_option,
     output_option,
     progress_bar,
     requires,
     say,
 )
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import EXIT_BAD_INPUT, one_line_errors
 
 EXIT_INTERNAL = 1

@@ -7,7 +7,6 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
-    SEED,
     display_options,
     emit_json,
     json_option,
@@ -19,6 +18,7 @@ from pavonine.pipeline.cli.options import (
     threads_option,
     warnings_to_log,
 )
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.shipped import assets_dir
 

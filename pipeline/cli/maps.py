@@ -7,13 +7,13 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
-    SEED,
     emit_json,
     json_option,
     output_option,
     progress_bar,
     say,
 )
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.errors import InputError, one_line_errors
 
 KIND_NAMES = ("eye", "blue", "yellow", "fishtail")

@@ -8,8 +8,8 @@ Every command uses these instead of declaring its own variant (docs/cli.md descr
                        ``-`` = stdout, and then nothing else goes to stdout (param ``json_target``)
 ``junit_option``       ``--junit FILE``: results as JUnit XML for CI systems (param ``junit``)
 ``threads_option``     ``--threads N`` (or ``$PAVONINE_THREADS``): worker threads (applied, no param)
-``max_pixels_option``  ``--max-pixels N`` (or ``$PAVONINE_MAX_PIXELS``): pixel budget of images read
-``FiniteFloat``/``SEED`` the types of every float option (no NaN/inf) and every seed option
+(``values.py``)        ``FiniteFloat``, ``SEED``, ``max_pixels_option``: checked numbers, seeds and
+                       the ``--max-pixels`` budget of images read
 ``display_options``    ``--ocio-config``/``--display``/``--view``/``--exposure``: the OCIO display
                        transform of the PNGs written (param ``display``, a ``DisplayTransform``)
 ``requires(*modules)`` the optional modules a command needs: checked before it starts, a missing
@@ -31,7 +31,6 @@ import functools
 import importlib.util
 import json
 import logging
-import math
 import sys
 import warnings
 from collections.abc import Callable, Iterator
@@ -40,7 +39,7 @@ from typing import Any
 
 import click
 
-from pavonine.limits import SEED_RANGE
+from pavonine.pipeline.cli.values import FiniteFloat
 from pavonine.pipeline.errors import InputError, atomic_path
 
 F = Callable[..., Any]
@@ -475,66 +474,3 @@ def display_overrides() -> dict[str, Any]:
         for name, field in names.items()
         if ctx.get_parameter_source(name) == ParameterSource.COMMANDLINE
     }
-
-
-# ------------------------------------------------------------------------- checked numbers
-class FiniteFloat(click.ParamType):
-    """A float option that refuses NaN and ±inf (and, optionally, values outside ``[min, max]``).
-
-    ``float("nan")`` parses, and every comparison with it is false, so a plain ``type=float``
-    lets NaN through checks such as ``value <= 0``; every float option uses this type instead.
-    """
-
-    name = "number"
-
-    def __init__(self, min: float | None = None, max: float | None = None):
-        self.min, self.max = min, max
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None):
-        if isinstance(value, float) and math.isfinite(value):
-            number = value
-        else:
-            try:
-                number = float(value)
-            except (TypeError, ValueError):
-                self.fail(f"{value!r} is not a number", param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"must be a finite number, got {value!r}", param, ctx)
-        if (self.min is not None and number < self.min) or (
-            self.max is not None and number > self.max
-        ):
-            low = "-inf" if self.min is None else f"{self.min:g}"
-            high = "inf" if self.max is None else f"{self.max:g}"
-            self.fail(f"{number:g} is not in the range [{low}, {high}]", param, ctx)
-        return number
-
-    def __repr__(self) -> str:
-        return "FINITE_FLOAT"
-
-
-#: Every seed option: a whole number in :data:`pavonine.limits.SEED_RANGE` (Mitsuba's ``uint32``).
-SEED = click.IntRange(*SEED_RANGE)
-
-
-def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
-    from pavonine.limits import set_max_pixels
-
-    # None (not given) leaves $PAVONINE_MAX_PIXELS or the default, read where the budget is
-    # checked; so nothing outlives this command.
-    set_max_pixels(value)
-
-
-def max_pixels_option(func: F) -> F:
-    """``--max-pixels N`` (default ``$PAVONINE_MAX_PIXELS``): the pixel budget of images read."""
-    from pavonine.limits import DEFAULT_MAX_PIXELS, MAX_PIXELS_ENV
-
-    return click.option(
-        "--max-pixels",
-        type=click.IntRange(min=1),
-        expose_value=False,
-        is_eager=True,
-        callback=_apply_max_pixels,
-        metavar="N",
-        help=f"Pixel budget of every image read, checked from its header before decoding "
-        f"[default: ${MAX_PIXELS_ENV}, else {DEFAULT_MAX_PIXELS:,}].",
-    )(func)

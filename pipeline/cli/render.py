@@ -16,13 +16,10 @@ from typing import Any
 import click
 
 from pavonine.pipeline.cli.options import (
-    SEED,
-    FiniteFloat,
     display_options,
     emit_json,
     json_option,
     log,
-    max_pixels_option,
     output_option,
     requires,
     say,
@@ -30,6 +27,7 @@ from pavonine.pipeline.cli.options import (
     threads_option,
     warnings_to_log,
 )
+from pavonine.pipeline.cli.values import SEED, FiniteFloat, max_pixels_option
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.pipeline.farm.jobs import RenderJob, View
 from pavonine.pipeline.farm.options import farm_options

@@ -11,7 +11,6 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
-    FiniteFloat,
     display_options,
     emit_json,
     json_option,
@@ -19,6 +18,7 @@ from pavonine.pipeline.cli.options import (
     output_option,
     say,
 )
+from pavonine.pipeline.cli.values import FiniteFloat
 from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
 
 DEFAULT_OUTPUT = Path("out/spectra")

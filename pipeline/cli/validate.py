@@ -13,9 +13,9 @@ from pavonine.pipeline.cli.options import (
     emit_json,
     json_option,
     junit_option,
-    max_pixels_option,
     say,
 )
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_UNREADABLE = 0, 1, 2
