@@ -394,6 +394,7 @@ CLI_OPTIONS: dict[str, list[str]] = {
     "--exposure": ["nan", "inf", "1e308", "x"],
     "--max-pixels": ["0", "-1", "nan", "x"],
     "--threads": ["0", "-1", "nan"],
+    "--jobs": ["0", "-1", "65", "nan", str(2**70)],
 }
 #: Values of the cheap commands' numeric options, valid or not: any outcome must be clean.
 CLI_ANY: dict[str, list[str]] = {

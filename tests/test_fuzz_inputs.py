@@ -190,6 +190,8 @@ REFUSING = {
     "maps": (["eye"], ["--seed", "--size"]),
     "check-renders": ([], ["--seed", "--max-pixels"]),
     "compare": (["a.exr", "b.exr"], ["--exposure", "--max-pixels"]),
+    "convert": (["recipe.toml"], ["--jobs", "--max-pixels"]),
+    "bake": (["asset.usd"], ["--resolution", "--max-pixels"]),
 }
 
 
@@ -205,7 +207,7 @@ def test_bad_option_values_are_refused_before_any_work(tmp_path_factory, data):
     out = tmp_path_factory.mktemp("refused")
     if command in ("render",):
         args += ["-o", str(out / "x.exr")]
-    elif command in ("demo", "maps"):
+    elif command in ("demo", "maps", "convert"):
         args += ["-o", str(out / "o")]
     outcome = run_cli(args, seconds=60)
     assert_clean(outcome, args, codes=(2,))

@@ -437,3 +437,16 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
     assert proc.returncode == 130, stderr
     assert stderr.strip().splitlines() == ["error: interrupted (Ctrl-C)"]
     assert_nothing_left(out)
+
+
+def test_out_of_memory_within_the_budget_is_named_not_internal(tmp_path, monkeypatch):
+    """Maps under the pixel budget may still exhaust a small machine: a MemoryError is reported
+    as bad input naming the recipe, not as an "internal error"."""
+    from pavonine.pipeline.convert import batch
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(batch, "load_maps", exhausted)
+    result = batch._convert_safely(str(recipe_file(tmp_path)), str(tmp_path / "out"), False)
+    assert result.bad_input and "out of memory" in result.error and "internal" not in result.error

@@ -234,6 +234,13 @@ def _convert_safely(
     except OSError as exc:  # unwritable output, a file where a folder should be, a full disk
         where = exc.filename if exc.filename is not None else outdir
         return ConvertResult(recipe_path, error=f"{where}: {exc.strerror or exc}", bad_input=True)
+    except MemoryError:  # maps within the pixel budget can still be too much for this machine
+        return ConvertResult(
+            recipe_path,
+            error=f"{recipe_path}: out of memory while converting (use smaller maps, or a lower "
+            "pixel budget: --max-pixels, docs/reliability.md)",
+            bad_input=True,
+        )
     except Exception as exc:  # a bug: keep the batch going, report where it happened
         frame = traceback.extract_tb(exc.__traceback__)[-1]
         where = f"{Path(frame.filename).name}:{frame.lineno}"
