@@ -424,6 +424,12 @@ def test_env_quoting_for_powershell_and_fish_by_rule(value):
 
 
 # ------------------------------------------------------------------------------------ Ctrl-C
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a running process (Linux ``/proc``)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
     out = tmp_path / "maps"
     proc = subprocess.Popen(
@@ -431,7 +437,11 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
     )  # fmt: skip
-    time.sleep(3.0)  # imports done, painting (which takes far longer) under way
+    # Interrupt once the command is painting (about 9 s of CPU at this size), whatever the load:
+    # after 2 s of CPU time its imports (under 1 s) are done.
+    deadline = time.monotonic() + 120
+    while _cpu_seconds(proc.pid) < 2.0 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
     proc.send_signal(signal.SIGINT)
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
