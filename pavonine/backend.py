@@ -238,9 +238,13 @@ def probe_libllvm(path: str) -> tuple[bool, str]:
 def usable_libllvm(min_major: int = MIN_LLVM_MAJOR) -> tuple[tuple[str, int] | None, str]:
     """:func:`find_libllvm`'s library if it passes :func:`probe_libllvm`, and why not otherwise.
 
-    A ``DRJIT_LIBLLVM_PATH`` the user set to an unusable library (older than ``min_major`` by
-    its name, or failing the probe) gives ``None``: Pavonine does not silently use another one.
+    A ``DRJIT_LIBLLVM_PATH`` the user set to an unusable library (missing, older than
+    ``min_major`` by its name, or failing the probe) gives ``None``: Pavonine does not silently
+    use another one.
     """
+    preset = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if preset and not os.path.isfile(preset):
+        return None, f"DRJIT_LIBLLVM_PATH={preset} is not a file"
     lib = find_libllvm(min_major)
     if lib is None:
         return None, f"no shared libLLVM >= {min_major} found"

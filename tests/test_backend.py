@@ -110,3 +110,10 @@ def test_probe_verdict_is_cached_per_path_and_mtime(tmp_path, monkeypatch):
     os.utime(lib, ns=(0, 10**18))  # replaced library: probed again
     backend.probe_libllvm(str(lib))
     assert len(calls) == 2
+
+
+@pytest.mark.mitsuba
+def test_user_libllvm_that_does_not_exist_falls_back_with_a_warning(tmp_path):
+    variant, warned, status = _select_with(str(tmp_path / "libLLVM-19.so"), tmp_path / "cache")
+    assert status == 0 and variant.startswith("scalar_spectral")
+    assert "is not a file" in warned

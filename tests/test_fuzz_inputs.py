@@ -292,14 +292,15 @@ def test_maps_command_any_value_is_clean(tmp_path_factory, kind, size, seed, fmt
 
 
 @examples(20)
-@given(command=st.sampled_from(["validate", "convert", "bake", "export", "package"]),
+@given(command=st.sampled_from(["validate", "convert", "bake", "export", "package",
+                                "assemble train"]),
        kind=st.sampled_from(["missing", "folder", "fifo", "dev_zero", "loop", "dangling", "empty",
                              "text"]))  # fmt: skip
 def test_path_arguments_that_are_not_files_are_clean(workspace, tmp_path_factory, command, kind):
     path = Path("/dev/zero") if kind == "dev_zero" else workspace / "odd" / f"{kind}.png"
     out = tmp_path_factory.mktemp("paths") / "out"
-    args = [command, str(path)]
-    if command in ("convert",):
+    args = [*command.split(), str(path)]
+    if command in ("convert", "assemble train"):
         args += ["-o", str(out)]
     outcome = run_cli(args, seconds=30)
     assert_clean(outcome, args)
