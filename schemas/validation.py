@@ -323,10 +323,11 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
             )
         elif min(size) < MIN_MAP_SIZE:
             problems.append((WARN, "MapSize", f"{path} is only {size[0]}x{size[1]} pixels"))
-        try:
-            check_image_spec(path, spec)
-        except InputError as exc:
-            problems.append((ERROR, "MapSize", str(exc)))
+        if not problems:  # within the sides, the pixel budget (pavonine.limits) may still be lower
+            try:
+                check_image_spec(path, spec)
+            except InputError as exc:
+                problems.append((ERROR, "MapSize", str(exc)))
         colour = spec.nchannels - (1 if spec.alpha_channel >= 0 else 0)
         if spec.nchannels > 4:
             problems.append(

@@ -460,3 +460,20 @@ def test_out_of_memory_within_the_budget_is_named_not_internal(tmp_path, monkeyp
     monkeypatch.setattr(batch, "load_maps", exhausted)
     result = batch._convert_safely(str(recipe_file(tmp_path)), str(tmp_path / "out"), False)
     assert result.bad_input and "out of memory" in result.error and "internal" not in result.error
+
+
+def test_validate_reports_maps_over_a_lowered_pixel_budget(tmp_path):
+    from pxr import Usd
+
+    from pavonine.materials.parameters import preset
+    from pavonine.schemas.authoring import create_feather_material
+
+    maps_dir = write_maps(tmp_path / "maps", 16, 32)
+    maps = {name: str(maps_dir / f"{name}.png") for name in MAP_NAMES}
+    stage = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
+    material = create_feather_material(stage, "/Feather", preset("paper-table1"), maps)
+    stage.SetDefaultPrim(material.GetPrim())
+    stage.GetRootLayer().Save()
+    outcome = run_cli(["validate", "--max-pixels", "100", str(tmp_path / "asset.usda")])
+    assert outcome.code == 1
+    assert "16x32: 512 pixels exceed the pixel budget of 100" in outcome.stdout
