@@ -243,7 +243,6 @@ def test_pixel_budget_override_by_environment(tmp_path, monkeypatch):
 def test_pixel_budget_override_by_flag(tmp_path, huge_pngs):
     refused(["compare", "--max-pixels", "10", str(huge_pngs["20000"]), str(huge_pngs["20000"])],
             "pixel budget of 10 ")  # fmt: skip
-    limits.set_max_pixels(None)
 
 
 def test_map_header_declaring_far_more_pixels_than_it_holds(tmp_path):
@@ -477,3 +476,8 @@ def test_validate_reports_maps_over_a_lowered_pixel_budget(tmp_path):
     outcome = run_cli(["validate", "--max-pixels", "100", str(tmp_path / "asset.usda")])
     assert outcome.code == 1
     assert "16x32: 512 pixels exceed the pixel budget of 100" in outcome.stdout
+
+
+def test_max_pixels_flag_lasts_only_as_long_as_its_command(tmp_path, huge_pngs):
+    refused(["compare", "--max-pixels", "10", "a.png", "b.png"], "no such file")
+    assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS

@@ -64,8 +64,10 @@ def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | N
     from pavonine.limits import set_max_pixels
 
     # None (not given) leaves $PAVONINE_MAX_PIXELS or the default, read where the budget is
-    # checked; so nothing outlives this command.
+    # checked; a given value lasts as long as the command (commands run in-process, by tests or
+    # other tools, must not inherit it).
     set_max_pixels(value)
+    ctx.call_on_close(lambda: set_max_pixels(None))
 
 
 def max_pixels_option(func: F) -> F:
