@@ -3,18 +3,25 @@
 Mitsuba's fast ``llvm_*`` variants need a shared libLLVM >= 16 (Dr.Jit fails on LLVM 15 with
 "Cannot select: fminimum"). :func:`find_libllvm` locates one and :func:`select_variant` points
 ``DRJIT_LIBLLVM_PATH`` at it *before* Dr.Jit loads, then picks ``llvm_ad_spectral``; without a
-usable LLVM it falls back to ``scalar_spectral`` with one warning. :func:`set_threads` bounds the
+usable LLVM it falls back to ``scalar_spectral`` with one warning. A library that is too old or
+not a library at all aborts the process natively (``LLVM ERROR``, SIGFPE) the first time Dr.Jit
+compiles a kernel, so :func:`probe_libllvm` first compiles one in a *subprocess*; its verdict is
+cached per (path, size, mtime, Dr.Jit version) in :func:`probe_cache_path`, so it costs once. :func:`set_threads` bounds the
 worker threads of Dr.Jit, OpenImageIO and the BLAS/OpenMP libraries (``--threads``).
 """
 
 from __future__ import annotations
 
 import glob
+import json
 import os
 import re
+import subprocess
 import sys
+import tempfile
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 MIN_LLVM_MAJOR = 16
 FAST_VARIANT = "llvm_ad_spectral"
@@ -110,6 +117,146 @@ def find_libllvm(min_major: int = MIN_LLVM_MAJOR) -> tuple[str, int] | None:
     return path, major
 
 
+#: What the probe runs: a kernel using the min/max that LLVM < 16 cannot select (``fminimum``).
+_PROBE_CODE = """
+import drjit as dr
+if not dr.has_backend(dr.JitBackend.LLVM):
+    raise SystemExit("Dr.Jit could not initialise its LLVM back-end with this library")
+from drjit.llvm import Float
+x = dr.minimum(Float([1.0, 2.0]), Float([2.0, 1.0])) + dr.maximum(Float([1.0, 2.0]), Float(0.5))
+dr.eval(x)
+if [float(v) for v in x] != [2.0, 3.0]:
+    raise SystemExit(f"wrong result {list(x)}")
+print("ok")
+"""
+#: Seconds a probe may take (compiling one kernel takes well under one).
+PROBE_TIMEOUT = 60.0
+_probed: dict[tuple, tuple[bool, str]] = {}
+
+
+def probe_cache_path() -> Path:
+    """Where probe verdicts are kept: ``$PAVONINE_CACHE_DIR`` or ``$XDG_CACHE_HOME/pavonine``
+    (``~/.cache/pavonine``), file ``libllvm-probe.json``."""
+    folder = os.environ.get("PAVONINE_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+        "pavonine",
+    )
+    return Path(folder) / "libllvm-probe.json"
+
+
+def _probe_key(path: str) -> tuple:
+    from importlib.metadata import PackageNotFoundError, version
+
+    info = os.stat(path)
+    try:
+        drjit = version("drjit")
+    except PackageNotFoundError:
+        drjit = "none"
+    return (os.path.realpath(path), info.st_size, info.st_mtime_ns, drjit)
+
+
+def _read_cache() -> dict:
+    try:
+        data = json.loads(probe_cache_path().read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _write_cache(key: str, verdict: tuple[bool, str]) -> None:
+    """Record ``verdict`` (best effort: an unwritable cache only costs a probe next time)."""
+    path = probe_cache_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        data = _read_cache()
+        data[key] = list(verdict)
+        fd, tmp = tempfile.mkstemp(prefix=".libllvm-probe.", dir=path.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            json.dump(data, handle, indent=1)
+        os.replace(tmp, path)
+    except OSError:
+        return
+
+
+def _run_probe(path: str) -> tuple[bool, str]:
+    env = {**os.environ, "DRJIT_LIBLLVM_PATH": path}
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _PROBE_CODE],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=PROBE_TIMEOUT,
+            check=False,
+        )
+    except subprocess.TimeoutExpired:
+        return False, f"a test kernel did not finish within {PROBE_TIMEOUT:g} s"
+    except OSError as exc:
+        return False, f"cannot start the probe ({exc.strerror or exc})"
+    if done.returncode == 0 and done.stdout.strip().endswith("ok"):
+        return True, "ok"
+    lines = [line.strip() for line in (done.stderr + done.stdout).splitlines() if line.strip()]
+    detail = next((line for line in lines if "LLVM ERROR" in line or "Unable to load" in line), "")
+    detail = detail or (lines[-1] if lines else "")
+    status = (
+        f"killed by signal {-done.returncode}"
+        if done.returncode < 0
+        else f"exit status {done.returncode}"
+    )
+    return False, f"a test kernel failed ({status}{': ' + detail[:200] if detail else ''})"
+
+
+def probe_libllvm(path: str) -> tuple[bool, str]:
+    """Whether Dr.Jit can compile and run a kernel with the libLLVM at ``path``, and why not.
+
+    Runs in a subprocess, because an unusable library aborts the process that loads it. The
+    verdict is cached in memory and in :func:`probe_cache_path` per (path, size, mtime, Dr.Jit
+    version): a replaced library is probed again.
+    """
+    try:
+        key = _probe_key(path)
+    except OSError as exc:
+        return False, f"cannot read it ({exc.strerror or exc})"
+    if key in _probed:
+        return _probed[key]
+    text_key = json.dumps(key)
+    cached = _read_cache().get(text_key)
+    if (
+        isinstance(cached, list)
+        and len(cached) == 2
+        and isinstance(cached[0], bool)
+        and isinstance(cached[1], str)
+    ):
+        verdict = (cached[0], cached[1])
+    else:
+        verdict = _run_probe(path)
+        _write_cache(text_key, verdict)
+    _probed[key] = verdict
+    return verdict
+
+
+def usable_libllvm(min_major: int = MIN_LLVM_MAJOR) -> tuple[tuple[str, int] | None, str]:
+    """:func:`find_libllvm`'s library if it passes :func:`probe_libllvm`, and why not otherwise.
+
+    A ``DRJIT_LIBLLVM_PATH`` the user set to an unusable library (missing, older than
+    ``min_major`` by its name, or failing the probe) gives ``None``: Pavonine does not silently
+    use another one.
+    """
+    preset = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if preset and not os.path.isfile(preset):
+        return None, f"DRJIT_LIBLLVM_PATH={preset} is not a file"
+    lib = find_libllvm(min_major)
+    if lib is None:
+        return None, f"no shared libLLVM >= {min_major} found"
+    path, major = lib
+    if _llvm_major(path) is not None and major < min_major:
+        return None, f"{path} is LLVM {major}; Dr.Jit needs LLVM >= {min_major}"
+    ok, reason = probe_libllvm(path)
+    if not ok:
+        return None, f"{path} is not usable: {reason}"
+    return lib, "ok"
+
+
 def select_variant(preferred: str | None = None) -> Backend:
     """Set the Mitsuba variant once per process and return what was chosen.
 
@@ -121,14 +268,14 @@ def select_variant(preferred: str | None = None) -> Backend:
     if _selected is not None and (_selected.variant == wanted or preferred is None):
         return _selected
 
-    lib = find_libllvm()
+    lib, why = usable_libllvm() if wanted.startswith("llvm_") else (find_libllvm(), "")
     if wanted.startswith("llvm_") and lib is None:
         fallback = (
             "scalar_" + wanted.split("_", 2)[-1] if wanted.count("_") >= 2 else FALLBACK_VARIANT
         )
         warnings.warn(
-            f"pavonine: no shared libLLVM >= {MIN_LLVM_MAJOR} found (install Debian's libllvm19 or set "
-            f"DRJIT_LIBLLVM_PATH); falling back to the slow '{fallback}' Mitsuba variant",
+            f"pavonine: {why} (install Debian's libllvm19 or set DRJIT_LIBLLVM_PATH to a "
+            f"libLLVM >= {MIN_LLVM_MAJOR}); falling back to the slow '{fallback}' Mitsuba variant",
             BackendWarning,
             stacklevel=2,
         )

@@ -204,15 +204,15 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
     """Pixels (H×W×C float32) and header attributes of an image written by :func:`write_exr`."""
     import OpenImageIO as oiio
 
-    image = oiio.ImageInput.open(os.fspath(path))
-    if image is None:
-        raise InputError(os.fspath(path), f"cannot read image: {oiio.geterror()}")
-    try:
+    from pavonine.limits import open_image
+
+    with open_image(path) as image:  # a regular file within the pixel budget
         spec = image.spec()
         pixels = image.read_image(oiio.FLOAT)
         attributes = {a.name: a.value for a in spec.extra_attribs}
-    finally:
-        image.close()
+        error = image.geterror() if pixels is None else ""
+    if pixels is None:
+        raise InputError(os.fspath(path), f"cannot read image: {error.strip() or 'no pixels'}")
     return np.asarray(pixels), attributes
 
 

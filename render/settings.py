@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from pxr import Usd, UsdRender
 
+from pavonine.limits import check_pixel_count
 from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
 
@@ -62,6 +63,7 @@ def parse_resolution(text: str, where: str = "--resolution") -> tuple[int, int]:
         raise InputError(where, f"expected WIDTHxHEIGHT (e.g. 512x512), got {text!r}")
     if min(size) < 1:
         raise InputError(where, f"width and height must be positive, got {text!r}")
+    check_pixel_count(where, size[0], size[1])  # the pixel budget (pavonine.limits)
     return size[0], size[1]
 
 

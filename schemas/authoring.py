@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -243,6 +244,31 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
             parts.update(zip(names, (float(v) for v in value), strict=True))
         scalars[field] = Dispersion(**parts)
     return FeatherParameters.from_class_arrays(arrays, **scalars)
+
+
+_FIELD = re.compile(r"class\[(\d+)\]\.(long|short|cortex)\.?(black|white)?\.?(\w+)?")
+_NAMED_FIELDS = {
+    "lattice": "pavonine:rodLattice",
+    "melanin": "pavonine:melaninDispersion",
+    "keratin": "pavonine:keratinDispersion",
+}
+
+
+def attribute_of_field(field: str) -> str:
+    """The schema attribute behind a :class:`ParameterError` field (``class[4].short.black.radius``
+    → ``pavonine:short:rodRadius``, ``crescent_sigma_deg`` → ``pavonine:crescentSigma``)."""
+    match = _FIELD.fullmatch(field)
+    if not match:
+        scalar = {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.get(field)
+        if scalar is not None:
+            return scalar[0]
+        return _NAMED_FIELDS.get(field.split(".")[0], f"pavonine:{field}")
+    _, axis, _, quantity = match.groups()
+    if axis == "cortex":
+        return STRUCTURE_ATTRS["cortex"]
+    if quantity in ("spacing", "channel"):
+        return STRUCTURE_ATTRS[f"{axis}_{quantity}"]
+    return CLASS_ATTRS[(axis, quantity if quantity in ("interval", "count") else "radius")][0]
 
 
 def resolve_maps(material: Usd.Prim | UsdShade.Material) -> dict[str, str | None]:

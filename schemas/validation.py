@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import functools
 import math
-import re
 from collections.abc import Callable, Iterable
 
 from pxr import Usd, UsdShade, UsdValidation
@@ -218,27 +217,6 @@ def _check_scalars(prim: Usd.Prim) -> list:
     return errors
 
 
-_FIELD = re.compile(r"^class\[(\d+)\]\.(long|short|cortex)\.?(black|white)?\.?(\w+)?$")
-_NAMED_FIELDS = {
-    "lattice": "pavonine:rodLattice",
-    "melanin": "pavonine:melaninDispersion",
-    "keratin": "pavonine:keratinDispersion",
-}
-
-
-def _attribute_of_field(field: str) -> str:
-    """The schema attribute behind a :class:`ParameterError` field (``class[4].short.black.radius``)."""
-    match = _FIELD.match(field)
-    if not match:
-        return _NAMED_FIELDS.get(field, f"pavonine:{field}")
-    _, axis, _, quantity = match.groups()
-    if axis == "cortex":
-        return authoring.STRUCTURE_ATTRS["cortex"]
-    if quantity in ("spacing", "channel"):
-        return authoring.STRUCTURE_ATTRS[f"{axis}_{quantity}"]
-    return _attr_of(axis, quantity if quantity in ("interval", "count") else "radius")
-
-
 def _check_lattice(prim: Usd.Prim) -> list:
     """The whole material through :meth:`FeatherParameters.validate`: optional per-class arrays,
     dispersive indices, and the rod lattice (an error in the physical mode, a warning per class
@@ -251,7 +229,7 @@ def _check_lattice(prim: Usd.Prim) -> list:
         params.validate()
     except ParameterError as exc:
         message = f"{exc.field}: {exc.reason}"
-        return [_error(prim, exc.kind, message, _attribute_of_field(exc.field))]
+        return [_error(prim, exc.kind, message, authoring.attribute_of_field(exc.field))]
     return [
         _error(prim, "StaggeredRodsOverlap", message, _attr_of(axis, "radius"), WARN)
         for _, axis, message in params.geometry_warnings()
@@ -314,12 +292,18 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
     import OpenImageIO as oiio
 
     from pavonine.asset_io import local_file
+    from pavonine.limits import check_image_spec, regular_file
+    from pavonine.pipeline.errors import InputError
 
     problems: list[tuple[str, str, object]] = []
     try:
         local = local_file(path)
     except OSError as exc:
         return [(ERROR, "MapMissing", f"cannot read {path}: {exc.strerror or exc}")], None
+    try:
+        regular_file(local, path)  # never open a FIFO or a device: it would block or not end
+    except InputError as exc:
+        return [(ERROR, "MapNotAnImage", str(exc))], None
     inp = oiio.ImageInput.open(local)
     if inp is None:
         message = oiio.geterror() or "unknown format"
@@ -339,6 +323,11 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
             )
         elif min(size) < MIN_MAP_SIZE:
             problems.append((WARN, "MapSize", f"{path} is only {size[0]}x{size[1]} pixels"))
+        if not problems:  # within the sides, the pixel budget (pavonine.limits) may still be lower
+            try:
+                check_image_spec(path, spec)
+            except InputError as exc:
+                problems.append((ERROR, "MapSize", str(exc)))
         colour = spec.nchannels - (1 if spec.alpha_channel >= 0 else 0)
         if spec.nchannels > 4:
             problems.append(
@@ -348,7 +337,7 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
                     f"{path} has {spec.nchannels} channels; expected 1 (grey) to 4",
                 )
             )
-        elif colour >= 3:
+        elif colour >= 3 and not any(p[0] == ERROR for p in problems):  # never decode a refused map
             pixels = inp.read_image(0, 0, 0, 3, "float")
             if pixels is None:
                 problems.append(

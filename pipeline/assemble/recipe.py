@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from pavonine.limits import SEED_RANGE
 from pavonine.pipeline.convert.recipe import (
     _NAME_RE,
     _check_keys,
@@ -19,6 +20,7 @@ from pavonine.pipeline.convert.recipe import (
     _number,
     name_and_version,
     read_toml,
+    resolve_relative,
 )
 
 LODS = ("high", "medium", "low")
@@ -126,7 +128,7 @@ def _parse_row(path: Path, index: int, table: Any, components: dict[str, Path]) 
     for key in ("component", "edge"):
         if key in table:
             name = table[key]
-            if name not in components:
+            if not isinstance(name, str) or name not in components:
                 known = ", ".join(sorted(components))
                 raise _fail(path, f"{prefix}.{key}", f"unknown component {name!r} (known: {known})")
             values[key] = name
@@ -191,8 +193,11 @@ def parse_train_recipe(path: str | os.PathLike) -> TrainRecipe:
     _check_keys(path, data, allowed, "")
     name, version = name_and_version(path, data, "peacock_train")
     seed = int(_number(path, "seed", data.get("seed", 0), positive=False, integer=True))
+    low, high = SEED_RANGE
+    if seed > high:
+        raise _fail(path, "seed", f"must lie in [{low}, {high}], got {seed}")
     lod = data.get("lod", "medium")
-    if lod not in LODS:
+    if not isinstance(lod, str) or lod not in LODS:
         raise _fail(path, "lod", f"must be one of {', '.join(LODS)}, got {lod!r}")
     table = data.get("components")
     if not isinstance(table, dict) or not table:
@@ -201,11 +206,11 @@ def parse_train_recipe(path: str | os.PathLike) -> TrainRecipe:
         )
     components: dict[str, Path] = {}
     for key, value in table.items():
-        if not _NAME_RE.match(key):
+        if not _NAME_RE.fullmatch(key):
             raise _fail(path, f"components.{key}", "must be a USD identifier")
         if not isinstance(value, str) or not value:
             raise _fail(path, f"components.{key}", f"expected a file path, got {value!r}")
-        asset = (path.parent / value).resolve()
+        asset = resolve_relative(path, f"components.{key}", value)
         if not asset.is_file():
             raise _fail(path, f"components.{key}", f"no such component asset: {asset}")
         components[key] = asset

@@ -13,6 +13,7 @@ from pavonine.pipeline.cli.options import (
     requires,
     say,
 )
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
 
 JSON_SCHEMA = {
@@ -56,6 +57,7 @@ JSON_SCHEMA = {
 )
 @json_option(JSON_SCHEMA)
 @requires("pymeshlab", "MaterialX")
+@max_pixels_option
 @one_line_errors
 def bake(asset: Path, resolution: int, json_target: str | None) -> None:
     """Bake ASSET's feather materials into textures over the st atlas.

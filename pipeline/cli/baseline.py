@@ -17,6 +17,7 @@ from pavonine.pipeline.cli.options import (
     stdout_console,
     threads_option,
 )
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.compare.baselines import (
     BASELINE_SETTINGS,
     BASELINES_DIR,
@@ -112,7 +113,7 @@ def baseline() -> None:
     f"longer side {CI_LONG_SIDE}.",
 )
 @click.option("--spp", type=int, default=BASELINE_SETTINGS.spp, show_default=True)
-@click.option("--seed", type=int, default=BASELINE_SETTINGS.seed, show_default=True)
+@click.option("--seed", type=SEED, default=BASELINE_SETTINGS.seed, show_default=True)
 @click.option(
     "--check-spp",
     type=int,
@@ -122,7 +123,7 @@ def baseline() -> None:
 )
 @click.option(
     "--check-seed",
-    type=int,
+    type=SEED,
     default=CHECK_SETTINGS.seed,
     show_default=True,
     help="Seed CI renders with (must differ from --seed).",

@@ -18,6 +18,7 @@ from pavonine.pipeline.cli.options import (
     say,
     threads_option,
 )
+from pavonine.pipeline.cli.values import SEED, max_pixels_option
 from pavonine.pipeline.compare.baselines import (
     BASELINES_DIR,
     SceneCheck,
@@ -143,13 +144,14 @@ def report_entries(checks: list[SceneCheck]):
     show_default=True,
     help="Which comparisons must pass.",
 )
-@click.option("--seed", type=int, help="Override the check seed recorded with each baseline.")
+@click.option("--seed", type=SEED, help="Override the check seed recorded with each baseline.")
 @store_options
 @json_option(JSON_SCHEMA)
 @junit_option
 @display_options
 @threads_option
 @requires("mitsuba", "drjit", "flip_evaluator")
+@max_pixels_option
 @one_line_errors
 def check_renders(
     scenes: tuple[str, ...],

@@ -15,6 +15,7 @@ from pavonine.pipeline.cli.options import (
     say,
     stdout_console,
 )
+from pavonine.pipeline.cli.values import FiniteFloat, max_pixels_option
 from pavonine.pipeline.compare.methods import (
     FLIP_THRESHOLD,
     METHODS,
@@ -113,25 +114,26 @@ def print_results(results: list[ComparisonResult], title: str) -> None:
 )
 @click.option(
     "--significance",
-    type=float,
+    type=FiniteFloat(),
     default=SIGNIFICANCE,
     show_default=True,
     help="stat: family-wise false-alarm probability (Šidák-corrected per test).",
 )
 @click.option(
     "--pass-ratio",
-    type=float,
+    type=FiniteFloat(),
     default=PASS_RATIO,
     show_default=True,
     help="stat: share of tests per block size that must pass.",
 )
 @click.option(
     "--flip-threshold",
-    type=float,
+    type=FiniteFloat(),
     help=f"Mean FLIP above which images differ [default: a baseline folder's calibrated "
     f"threshold, else {FLIP_THRESHOLD}].",
 )
 @display_options
+@max_pixels_option
 @one_line_errors
 def compare(
     test: Path,

@@ -15,6 +15,7 @@ from pavonine.pipeline.cli.options import (
     requires,
     say,
 )
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import EXIT_BAD_INPUT, one_line_errors
 
 EXIT_INTERNAL = 1
@@ -80,6 +81,7 @@ JSON_SCHEMA = {
 )
 @json_option(JSON_SCHEMA)
 @requires("pymeshlab", "xatlas")
+@max_pixels_option
 @one_line_errors
 def convert(
     recipes: tuple[str, ...],

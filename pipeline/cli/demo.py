@@ -18,6 +18,7 @@ from pavonine.pipeline.cli.options import (
     threads_option,
     warnings_to_log,
 )
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.shipped import assets_dir
 
@@ -112,7 +113,7 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
 )
 @click.option("--resolution", default="512x768", show_default=True, help="Render size WxH.")
 @click.option(
-    "--seed", default=1, show_default=True, type=int, help="Seed for the maps and the render."
+    "--seed", default=1, show_default=True, type=SEED, help="Seed for the maps and the render."
 )
 @display_options
 @threads_option

@@ -14,6 +14,39 @@ from pavonine.schemas.plugin import ENV_VAR, append_paths, env_value
 MTLX_ENV_VAR = "PXR_MTLX_PLUGIN_SEARCH_PATHS"
 
 
+#: Characters PowerShell reads as a single quote (it folds the typographic ones into ``'``).
+POWERSHELL_QUOTES = "'\u2018\u2019\u201a\u201b"
+SHELLS = ("sh", "fish", "powershell")
+
+
+def quote(value: str, shell: str) -> str:
+    """``value`` as one literal word of ``shell``: evaluating it never runs code.
+
+    * ``sh`` (POSIX sh, bash, zsh, dash): single quotes, ``'`` written as ``'"'"'``
+      (:func:`shlex.quote`).
+    * ``fish``: single quotes, in which fish still reads backslash-backslash and
+      backslash-quote as escapes, so both are escaped with a backslash.
+    * ``powershell``: single quotes (no variable or subexpression expansion) in which each
+      quote character, including the typographic ones PowerShell folds into ``'``, is doubled.
+    """
+    if shell == "sh":
+        return shlex.quote(value)
+    if shell == "fish":
+        return "'" + value.replace("\\", "\\\\").replace("'", "\\'") + "'"
+    if shell == "powershell":
+        return "'" + "".join(c * 2 if c in POWERSHELL_QUOTES else c for c in value) + "'"
+    raise ValueError(f"unknown shell {shell!r}; known: {', '.join(SHELLS)}")
+
+
+def assignment(name: str, value: str, shell: str) -> str:
+    """The line of ``shell`` that sets and exports ``name`` to ``value``."""
+    if shell == "fish":
+        return f"set -gx {name} {quote(value, 'fish')}"
+    if shell == "powershell":
+        return f"$env:{name} = {quote(value, 'powershell')}"
+    return f"export {name}={quote(value, 'sh')}"
+
+
 def env_lines(validators: bool = False) -> dict[str, str]:
     """Variable → value: the schema plugin (and, on request, the validator plugin) appended to
     ``PXR_PLUGINPATH_NAME``, and the folder of ``pavonine_feather.mtlx`` appended to
@@ -27,7 +60,7 @@ def env_lines(validators: bool = False) -> dict[str, str]:
 @click.command("env")
 @click.option(
     "--shell",
-    type=click.Choice(["sh", "fish", "powershell"]),
+    type=click.Choice(SHELLS),
     default="sh",
     show_default=True,
     help="Syntax of the printed lines.",
@@ -48,13 +81,10 @@ def env(shell: str, validators: bool) -> None:
     PXR_PLUGINPATH_NAME gets the schema's plugin folder (only the schema: any USD process can
     load it); PXR_MTLX_PLUGIN_SEARCH_PATHS gets the folder of pavonine_feather.mtlx (the node
     ND_pavonine_feather_surfaceshader, for USD builds with MaterialX). Existing values are kept.
+    Values are quoted for the chosen shell, so evaluating the lines never runs code, whatever
+    the paths contain.
     With --validators, PXR_PLUGINPATH_NAME also gets the validator plugin, which imports
     pavonine.schemas.validation.
     """
     for name, value in env_lines(validators).items():
-        if shell == "fish":
-            click.echo(f"set -gx {name} {shlex.quote(value)}")
-        elif shell == "powershell":
-            click.echo(f"$env:{name} = '{value}'")
-        else:
-            click.echo(f"export {name}={shlex.quote(value)}")
+        click.echo(assignment(name, value, shell))

@@ -6,7 +6,14 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.cli.options import emit_json, json_option, output_option, requires, say
+from pavonine.pipeline.cli.options import (
+    emit_json,
+    json_option,
+    output_option,
+    requires,
+    say,
+)
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
 
 JSON_SCHEMA = {
@@ -42,6 +49,7 @@ JSON_SCHEMA = {
 )
 @json_option(JSON_SCHEMA)
 @requires("pygltflib")
+@max_pixels_option
 @one_line_errors
 def export(asset: Path, output: Path, lod: str | None, json_target: str | None) -> None:
     """Export ASSET (a root layer, or its folder) as a binary glTF 2.0 file.

@@ -7,6 +7,8 @@
 * Usage errors (unknown option, bad value, missing argument), bad input
   (:class:`~pavonine.pipeline.errors.InputError`) and a missing optional extra each print one line
   ``error: <where>: <message>`` on stderr and exit with status 2.
+* Ctrl-C prints one line ``error: interrupted …`` and exits with status 130 (files are written
+  atomically, so an interrupted command leaves none half-written).
 """
 
 from __future__ import annotations
@@ -70,6 +72,14 @@ def _add_global_options(command: click.Command) -> click.Command:
     return command
 
 
+#: Exit status after Ctrl-C (128 + SIGINT), as shells report an interrupted command.
+EXIT_INTERRUPTED = 130
+
+
+class Interrupted(Exception):
+    """Ctrl-C inside a command: reported as one line, exit :data:`EXIT_INTERRUPTED`."""
+
+
 class PavonineGroup(click.Group):
     """Lazy subcommands from a ``name → "module:attribute"`` table, and the error convention."""
 
@@ -98,6 +108,8 @@ class PavonineGroup(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
+        except KeyboardInterrupt:  # click would turn it into Abort ("aborted", exit 1)
+            raise Interrupted() from None
         except ModuleNotFoundError as exc:
             error = missing_extra(exc, f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip())
             if error is None:
@@ -121,7 +133,13 @@ class PavonineGroup(click.Group):
         except click.ClickException as exc:
             click.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
             sys.exit(exc.exit_code)
-        except click.Abort:
+        except (Interrupted, KeyboardInterrupt):
+            click.echo("error: interrupted (Ctrl-C)", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        except click.Abort as exc:
+            if isinstance(exc.__cause__, KeyboardInterrupt):  # Ctrl-C while click parsed
+                click.echo("error: interrupted (Ctrl-C)", err=True)
+                sys.exit(EXIT_INTERRUPTED)
             click.echo("aborted", err=True)
             sys.exit(1)
         except (InputError, ParameterError) as exc:  # commands use @one_line_errors; the rest

@@ -13,6 +13,7 @@ from pavonine.pipeline.cli.options import (
     progress_bar,
     say,
 )
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.errors import InputError, one_line_errors
 
 KIND_NAMES = ("eye", "blue", "yellow", "fishtail")
@@ -46,9 +47,7 @@ JSON_SCHEMA = {
     type=click.IntRange(16, 16384),
     help="Pixels along the feather (map height); the width follows the kind's aspect.",
 )
-@click.option(
-    "--seed", default=0, show_default=True, type=click.IntRange(min=0), help="Seed of the noise."
-)
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of the noise.")
 @click.option(
     "--format",
     "fmt",

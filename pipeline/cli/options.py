@@ -8,6 +8,8 @@ Every command uses these instead of declaring its own variant (docs/cli.md descr
                        ``-`` = stdout, and then nothing else goes to stdout (param ``json_target``)
 ``junit_option``       ``--junit FILE``: results as JUnit XML for CI systems (param ``junit``)
 ``threads_option``     ``--threads N`` (or ``$PAVONINE_THREADS``): worker threads (applied, no param)
+(``values.py``)        ``FiniteFloat``, ``SEED``, ``max_pixels_option``: checked numbers, seeds and
+                       the ``--max-pixels`` budget of images read
 ``display_options``    ``--ocio-config``/``--display``/``--view``/``--exposure``: the OCIO display
                        transform of the PNGs written (param ``display``, a ``DisplayTransform``)
 ``requires(*modules)`` the optional modules a command needs: checked before it starts, a missing
@@ -37,6 +39,7 @@ from typing import Any
 
 import click
 
+from pavonine.pipeline.cli.values import FiniteFloat
 from pavonine.pipeline.errors import InputError, atomic_path
 
 F = Callable[..., Any]
@@ -286,12 +289,15 @@ def output_option(
     help: str,
 ) -> Callable[[F], F]:
     """``-o/--output PATH``: where the command writes (a ``folder`` or a file), param ``output``."""
+    # No ``default=None`` when there is none: click >= 8.3 takes an explicit None default as a
+    # value, so a required -o would go missing silently (and fail later with a TypeError).
+    extra: dict[str, Any] = {} if default is None else {"default": default}
     return click.option(
         "-o",
         "--output",
         "output",
         type=click.Path(file_okay=not folder, dir_okay=folder, path_type=Path),
-        default=default,
+        **extra,
         required=required,
         show_default=default is not None,
         metavar="DIR" if folder else "FILE",
@@ -444,7 +450,7 @@ def display_options(func: F) -> F:
         ),
         click.option(
             "--exposure",
-            type=float,
+            type=FiniteFloat(-64.0, 64.0),
             default=0.0,
             show_default=True,
             metavar="STOPS",

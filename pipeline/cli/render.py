@@ -27,6 +27,7 @@ from pavonine.pipeline.cli.options import (
     threads_option,
     warnings_to_log,
 )
+from pavonine.pipeline.cli.values import SEED, FiniteFloat, max_pixels_option
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.pipeline.farm.jobs import RenderJob, View
 from pavonine.pipeline.farm.options import farm_options
@@ -146,11 +147,15 @@ JSON_SCHEMA = {
 )
 @farm_options
 @click.option(
-    "--time", "time_", type=float, default=None, help="USD time code [default: the stage's start]."
+    "--time",
+    "time_",
+    type=FiniteFloat(),
+    default=None,
+    help="USD time code [default: the stage's start].",
 )
 @click.option(
     "--seed",
-    type=int,
+    type=SEED,
     default=0,
     show_default=True,
     help="Random seed; the same seed gives the same image.",
@@ -160,6 +165,7 @@ JSON_SCHEMA = {
 @threads_option
 @json_option(JSON_SCHEMA)
 @requires("mitsuba", "drjit")
+@max_pixels_option
 @one_line_errors
 def render(
     stage: Path,

@@ -18,6 +18,7 @@ from pavonine.pipeline.cli.options import (
     output_option,
     say,
 )
+from pavonine.pipeline.cli.values import FiniteFloat
 from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
 
 DEFAULT_OUTPUT = Path("out/spectra")
@@ -73,12 +74,14 @@ def _angles(text: str) -> list[float]:
         ) from None
     if not values:
         raise InputError("--observe", "needs at least one angle")
+    if not all(math.isfinite(v) for v in values):
+        raise InputError("--observe", f"angles must be finite numbers, got {text!r}")
     return values
 
 
 def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, interference):
     """The material and class selected by the command-line options."""
-    from pavonine.materials.parameters import preset, uniform_parameters
+    from pavonine.materials.parameters import MAX_LAYER_COUNT, preset, uniform_parameters
 
     explicit = [v is not None for v in (interval, radius, layers)]
     if any(explicit):
@@ -93,6 +96,8 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
                     name,
                     f"is in nanometres; {value:g} nm is below 1 nm (did you mean {value * 1000:g}?)",
                 )
+        if layers > MAX_LAYER_COUNT:
+            raise InputError("--layers", f"must be at most {MAX_LAYER_COUNT}, got {layers:g}")
         params = uniform_parameters(interval / 1000.0, radius / 1000.0, layers)
         label = f"d{interval:g}_a{radius:g}_n{layers:g}"
     else:
@@ -127,16 +132,19 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 )
 @click.option(
     "--gradation",
-    type=float,
+    type=FiniteFloat(),
     default=0.0,
     show_default=True,
     help="0 = black end, 1 = white end (freyer2020: 0.5 = the measured region).",
 )
 @click.option(
-    "--interval", type=float, default=None, help="Layer interval d in nm (with --radius, --layers)."
+    "--interval",
+    type=FiniteFloat(),
+    default=None,
+    help="Layer interval d in nm (with --radius, --layers).",
 )
-@click.option("--radius", type=float, default=None, help="Rod radius a in nm.")
-@click.option("--layers", type=float, default=None, help="Number of layers N_d.")
+@click.option("--radius", type=FiniteFloat(), default=None, help="Rod radius a in nm.")
+@click.option("--layers", type=FiniteFloat(), default=None, help="Number of layers N_d.")
 @click.option(
     "--interference",
     type=click.Choice(["paper", "intensity", "physical"]),
@@ -146,7 +154,7 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 )
 @click.option(
     "--incidence",
-    type=float,
+    type=FiniteFloat(),
     default=0.0,
     show_default=True,
     help="Incidence angle (degrees from the vane normal).",
@@ -159,13 +167,17 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 )
 @click.option(
     "--azimuth",
-    type=float,
+    type=FiniteFloat(),
     default=90.0,
     show_default=True,
     help="Plane of incidence, degrees from the barbule's long axis (90 = across).",
 )
 @click.option(
-    "--structural-share", type=float, default=1.0, show_default=True, help="Melanin map value."
+    "--structural-share",
+    type=FiniteFloat(),
+    default=1.0,
+    show_default=True,
+    help="Melanin map value.",
 )
 @output_option(
     folder=True,

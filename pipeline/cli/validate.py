@@ -9,7 +9,13 @@ from pathlib import Path
 
 import click
 
-from pavonine.pipeline.cli.options import emit_json, json_option, junit_option, say
+from pavonine.pipeline.cli.options import (
+    emit_json,
+    json_option,
+    junit_option,
+    say,
+)
+from pavonine.pipeline.cli.values import max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_UNREADABLE = 0, 1, 2
@@ -79,6 +85,7 @@ def open_stage(path: str):
 @click.option("--warnings/--no-warnings", default=True, show_default=True, help="Report warnings.")
 @json_option(JSON_SCHEMA)
 @junit_option
+@max_pixels_option
 @one_line_errors
 def validate(
     paths: tuple[str, ...], warnings: bool, json_target: str | None, junit: Path | None

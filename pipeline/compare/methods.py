@@ -22,6 +22,7 @@ verdict. Images are written by :mod:`pavonine.render.imageio`.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from pavonine.limits import open_image
 from pavonine.materials.display import (
     REFERENCE_DISPLAY,
     DisplayError,
@@ -78,22 +80,13 @@ class LoadedImage:
 
 def _read_pixels(path: Path) -> tuple[np.ndarray, dict[str, object]]:
     """All channels of ``path`` as H×W×C float32 and its header attributes, or :class:`InputError`."""
-    import OpenImageIO as oiio
 
-    if not path.exists():
+    if not os.path.lexists(path):
         raise InputError(str(path), "no such file")
-    if path.is_dir():
-        raise InputError(str(path), "is a directory, expected an image file")
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        reason = oiio.geterror().strip().splitlines()
-        raise InputError(str(path), f"cannot read image ({reason[-1] if reason else 'unknown'})")
-    try:
+    with open_image(path) as inp:  # a regular file within the pixel budget (pavonine.limits)
         attributes = {a.name: a.value for a in inp.spec().extra_attribs}
         pixels = inp.read_image("float")
         error = inp.geterror() if pixels is None else ""
-    finally:
-        inp.close()
     if pixels is None or not isinstance(pixels, np.ndarray) or pixels.size == 0:
         raise InputError(str(path), f"corrupt or truncated image ({error.strip() or 'no pixels'})")
     pixels = np.asarray(pixels, dtype=np.float32)

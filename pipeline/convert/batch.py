@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE
 from pavonine.materials.parameters import ParameterError
 from pavonine.pipeline.convert.asset import (
     LODS,
@@ -99,6 +100,17 @@ def check_maps(recipe: Recipe, maps: dict[str, np.ndarray]) -> None:
     """Raise :class:`InputError` naming the file and field for maps that cannot make a feather."""
     ref_h, ref_w = maps["alpha"].shape
     ref_aspect = ref_w / ref_h
+    where = f"{recipe.maps['alpha']}: maps.alpha"
+    if min(ref_h, ref_w) < MIN_MAP_SIDE:
+        raise InputError(
+            where, f"{ref_w}x{ref_h} pixels; each side must be at least {MIN_MAP_SIDE} pixels"
+        )
+    if not 1.0 / MAX_MAP_ASPECT <= ref_aspect <= MAX_MAP_ASPECT:
+        raise InputError(
+            where,
+            f"{ref_w}x{ref_h} pixels: width:height must lie in [1:{MAX_MAP_ASPECT:g}, "
+            f"{MAX_MAP_ASPECT:g}:1] (the maps span the feather's length and width)",
+        )
     for name in MAP_NAMES:
         h, w = maps[name].shape
         if abs((w / h) / ref_aspect - 1.0) > ASPECT_TOLERANCE:
@@ -222,6 +234,13 @@ def _convert_safely(
     except OSError as exc:  # unwritable output, a file where a folder should be, a full disk
         where = exc.filename if exc.filename is not None else outdir
         return ConvertResult(recipe_path, error=f"{where}: {exc.strerror or exc}", bad_input=True)
+    except MemoryError:  # maps within the pixel budget can still be too much for this machine
+        return ConvertResult(
+            recipe_path,
+            error=f"{recipe_path}: out of memory while converting (use smaller maps, or a lower "
+            "pixel budget: --max-pixels, docs/reliability.md)",
+            bad_input=True,
+        )
     except Exception as exc:  # a bug: keep the batch going, report where it happened
         frame = traceback.extract_tb(exc.__traceback__)[-1]
         where = f"{Path(frame.filename).name}:{frame.lineno}"

@@ -8,6 +8,7 @@ default.
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import re
@@ -16,10 +17,12 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from pavonine.limits import read_small_file
 from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import (
     AXES,
     FREYER_2020_REGIONS,
+    MAX_LAYER_COUNT,
     STACK_QUANTITIES,
     FeatherParameters,
     LayerStack,
@@ -31,7 +34,8 @@ from pavonine.materials.parameters import (
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.maps.paint import MAP_NAMES
 
-_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: A USD identifier; always used with ``fullmatch`` (``$`` would accept a trailing newline).
+_NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 @dataclass(frozen=True)
@@ -225,11 +229,6 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
     return options
 
 
-#: Most layers a recipe may give a stack: Table 1 has at most 16, and 1000 layers of a 0.2 µm
-#: interval make a 0.2 mm stack, far thicker than any barbule.
-MAX_LAYER_COUNT = 1000
-
-
 def _check_count(path: Path, key: str, value: float) -> None:
     """Layer counts are whole numbers (the asset stores them as USD ``int2``)."""
     if not float(value).is_integer():
@@ -369,17 +368,42 @@ def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
 
 
 def read_toml(path: str | os.PathLike) -> tuple[Path, dict]:
-    """A recipe file's absolute path and its TOML tables; :class:`InputError` if unreadable."""
-    path = Path(path).resolve()
+    """A recipe file's absolute path and its TOML tables; :class:`InputError` if unreadable.
+
+    Only a regular file of at most :data:`pavonine.limits.MAX_RECIPE_BYTES` is read (a FIFO,
+    ``/dev/zero`` or a symlink loop is refused before it is opened); it must be UTF-8 TOML.
+    """
+    where = str(path)
     try:
-        with open(path, "rb") as handle:
-            return path, tomllib.load(handle)
-    except FileNotFoundError:
-        raise InputError(str(path), "recipe not found") from None
+        path = Path(path).absolute()
+        where = str(path)
+        data = read_small_file(path, where, missing="recipe not found")
+        path = path.resolve()
+    except (OSError, RuntimeError) as exc:  # Python 3.11's resolve() raises RuntimeError on loops
+        raise InputError(where, f"cannot resolve ({exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            str(path), f"not UTF-8 text (byte {exc.start}); recipes are UTF-8 TOML"
+        ) from None
+    try:
+        return path, tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(str(path), f"not valid TOML ({exc})") from None
-    except OSError as exc:
-        raise InputError(str(path), f"cannot read ({exc.strerror})") from None
+    except RecursionError:
+        raise InputError(str(path), "not valid TOML (arrays or tables nested too deeply)") from None
+
+
+def resolve_relative(path: Path, key: str, value: str) -> Path:
+    """``value`` (a path in the recipe at ``path``) made absolute, symbolic links resolved; a
+    symbolic link loop or an unusable path is an :class:`InputError` naming the key."""
+    try:
+        return (path.parent / value).resolve()
+    except (OSError, RuntimeError, ValueError) as exc:  # 3.11 raises RuntimeError on a loop
+        loop = isinstance(exc, RuntimeError) or getattr(exc, "errno", None) == errno.ELOOP
+        reason = "symbolic link loop" if loop else f"unusable path ({exc})"
+        raise _fail(path, key, f"{value}: {reason}") from None
 
 
 def name_and_version(path: Path, data: dict, example: str) -> tuple[str, str]:
@@ -387,7 +411,7 @@ def name_and_version(path: Path, data: dict, example: str) -> tuple[str, str]:
     if "name" not in data:
         raise _fail(path, "name", f'missing (the asset\'s name, e.g. name = "{example}")')
     name = data["name"]
-    if not isinstance(name, str) or not _NAME_RE.match(name):
+    if not isinstance(name, str) or not _NAME_RE.fullmatch(name):
         raise _fail(
             path, "name", f"must be a USD identifier ([A-Za-z_][A-Za-z0-9_]*), got {name!r}"
         )
@@ -413,7 +437,7 @@ def parse_recipe(path: str | os.PathLike) -> Recipe:
         value = maps_table[map_name]
         if not isinstance(value, str) or not value:
             raise _fail(path, f"maps.{map_name}", f"expected a file path, got {value!r}")
-        maps[map_name] = (path.parent / value).resolve()
+        maps[map_name] = resolve_relative(path, f"maps.{map_name}", value)
     material_table = data.get("material", {})
     if not isinstance(material_table, dict):
         raise _fail(path, "material", "expected a table [material]")

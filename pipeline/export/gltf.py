@@ -218,8 +218,11 @@ def _alpha_weights(path: str, shape: tuple[int, int], cutoff: float) -> np.ndarr
     import OpenImageIO as oiio
 
     from pavonine.asset_io import local_file
+    from pavonine.limits import check_image
 
-    pixels = oiio.ImageBuf(local_file(path)).get_pixels(oiio.FLOAT)
+    local = local_file(path)
+    check_image(local, path)  # within the pixel budget before decoding
+    pixels = oiio.ImageBuf(local).get_pixels(oiio.FLOAT)
     alpha = np.asarray(pixels)[..., 3] if pixels is not None and pixels.shape[-1] == 4 else None
     if alpha is None or alpha.shape != shape or not np.any(alpha >= cutoff):
         return np.ones(shape)

@@ -17,6 +17,7 @@ import numpy as np
 import OpenImageIO as oiio
 from scipy import ndimage
 
+from pavonine.limits import open_image
 from pavonine.pipeline.errors import InputError
 
 #: Colour space written into every map (data, not colour).
@@ -85,18 +86,11 @@ def read_data_map(path: str | os.PathLike, field: str) -> DataMap:
     """Read a grey map and note its pixel type; see :func:`read_map`."""
     path = Path(path)
     where = f"{path}: {field}"
-    if not path.is_file():
-        raise InputError(where, "file not found")
-    image = oiio.ImageInput.open(str(path))
-    if image is None:
-        raise InputError(where, f"unreadable image ({oiio.geterror().strip() or 'unknown format'})")
-    try:
+    with open_image(path, where) as image:  # a regular file within the pixel budget
         spec = image.spec()
         pixels = image.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
         error = image.geterror()
-    finally:
-        image.close()
-    if pixels is None or spec.width < 1 or spec.height < 1:
+    if pixels is None:
         raise InputError(where, f"unreadable image ({error.strip() or 'no pixels'})")
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     if spec.nchannels >= 3:
@@ -114,8 +108,9 @@ def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
 
     Accepts 8/16-bit integer or float images; one channel (or grey+alpha: the grey is used);
     RGB(A) is reduced to Rec. 709 luma. Pixel values are taken as stored (no colour
-    transform). Raises :class:`InputError` naming the file and field when unreadable,
-    empty or non-finite.
+    transform). Raises :class:`InputError` naming the file and field when it is not a regular
+    file, unreadable, empty, beyond the pixel budget (checked from the header, before decoding:
+    :mod:`pavonine.limits`) or non-finite.
     """
     return read_data_map(path, field).values
 

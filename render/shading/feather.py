@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import os
 
-from pxr import UsdShade
+from pxr import Usd, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
+from pavonine.materials.parameters import ParameterError
+from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.shading.spec import MaterialSpec
 
@@ -45,13 +47,29 @@ def renders_as_feather(material: UsdShade.Material) -> bool:
     return is_feather_material(material) and os.environ.get(IGNORE_FEATHER_SCHEMA) != "1"
 
 
+def parameter_input_error(prim: Usd.Prim, exc: ParameterError) -> InputError:
+    """``exc`` as an :class:`InputError` naming the layer that authors the attribute at fault
+    and ``<prim>.<attribute>`` (``crescent_sigma_deg: is NaN`` alone names neither)."""
+    from pavonine.schemas import authoring
+
+    name = authoring.attribute_of_field(exc.field)
+    attr = prim.GetAttribute(name)
+    stack = attr.GetPropertyStack() if attr else []
+    layer = stack[0].layer if stack else prim.GetStage().GetRootLayer()
+    where = layer.realPath or layer.identifier
+    return InputError(f"{where}: {prim.GetPath()}.{name}", exc.reason)
+
+
 def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> MaterialSpec:
     """The spectral feather BSDF of a ``PavonineFeatherAPI`` material."""
     from pavonine.render import feather_bsdf as plugin
     from pavonine.schemas import authoring
 
     path = str(material.GetPath())
-    params = authoring.read_feather_parameters(material)
+    try:
+        params = authoring.read_feather_parameters(material).validate()
+    except ParameterError as exc:
+        raise parameter_input_error(material.GetPrim(), exc) from None
     maps = dict(authoring.resolve_maps(material))
     for name, file in list(maps.items()):
         if not file:

@@ -25,6 +25,8 @@ import numpy as np
 from pxr import Gf, Sdf, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
+from pavonine.limits import check_image
+from pavonine.pipeline.errors import InputError
 from pavonine.render.shading.network import COLOR, FLOAT, VECTOR, Affine, Network, shader_identifier
 
 PREFIX = "mitsuba_"
@@ -68,6 +70,11 @@ def _bitmap(path: str | None, raw: bool, where: str, net: Network) -> Any:
     from pavonine.render.shading.textures import TextureError, read_texels
 
     if path is None:
+        return None
+    try:
+        check_image(path)  # a regular file within the pixel budget, before Mitsuba decodes it
+    except InputError as exc:
+        net.warn(where, f"texture {exc}")
         return None
     try:
         return mi.Bitmap(path)

@@ -33,6 +33,8 @@ import numpy as np
 from pxr import Ar, Sdf, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
+from pavonine.limits import check_image
+from pavonine.pipeline.errors import InputError
 from pavonine.render.shading.network import (
     COLOR,
     COMPONENTS,
@@ -208,6 +210,10 @@ def read_texels(resolved: str, space: str = "auto") -> tuple[np.ndarray, str | N
         path = local_file(resolved)
     except (AssetReadError, OSError) as exc:
         raise TextureError(f"texture {resolved!r} cannot be read ({exc.strerror or exc})") from None
+    try:
+        check_image(path, resolved)  # a regular file within the pixel budget, from its header
+    except InputError as exc:
+        raise TextureError(f"texture {exc}") from None
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)  # texels as stored, colour not premultiplied
     buf = oiio.ImageBuf(path, 0, 0, config)

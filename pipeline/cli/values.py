@@ -1,0 +1,86 @@
+"""Checked values of command-line options: floats that refuse NaN and infinities, seeds within
+Mitsuba's ``uint32``, and the ``--max-pixels`` budget of images read (``pavonine.limits``).
+
+==========================  ====================================================================
+``FiniteFloat(min, max)``   the type of every float option: NaN and ±inf are refused
+``SEED``                    the type of every seed option: a whole number in ``SEED_RANGE``
+``max_pixels_option``       ``--max-pixels N`` (else ``$PAVONINE_MAX_PIXELS``): pixel budget of
+                            images read, checked from their headers (applied, no param)
+==========================  ====================================================================
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import click
+
+from pavonine.limits import SEED_RANGE
+
+F = Callable[..., Any]
+
+
+class FiniteFloat(click.ParamType):
+    """A float option that refuses NaN and ±inf (and, optionally, values outside ``[min, max]``).
+
+    ``float("nan")`` parses, and every comparison with it is false, so a plain ``type=float``
+    lets NaN through checks such as ``value <= 0``; every float option uses this type instead.
+    """
+
+    name = "number"
+
+    def __init__(self, min: float | None = None, max: float | None = None):
+        self.min, self.max = min, max
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None):
+        if isinstance(value, float) and math.isfinite(value):
+            number = value
+        else:
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"must be a finite number, got {value!r}", param, ctx)
+        if (self.min is not None and number < self.min) or (
+            self.max is not None and number > self.max
+        ):
+            low = "-inf" if self.min is None else f"{self.min:g}"
+            high = "inf" if self.max is None else f"{self.max:g}"
+            self.fail(f"{number:g} is not in the range [{low}, {high}]", param, ctx)
+        return number
+
+    def __repr__(self) -> str:
+        return "FINITE_FLOAT"
+
+
+#: Every seed option: a whole number in :data:`pavonine.limits.SEED_RANGE` (Mitsuba's ``uint32``).
+SEED = click.IntRange(*SEED_RANGE)
+
+
+def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
+    from pavonine.limits import set_max_pixels
+
+    # None (not given) leaves $PAVONINE_MAX_PIXELS or the default, read where the budget is
+    # checked; a given value lasts as long as the command (commands run in-process, by tests or
+    # other tools, must not inherit it).
+    set_max_pixels(value)
+    ctx.call_on_close(lambda: set_max_pixels(None))
+
+
+def max_pixels_option(func: F) -> F:
+    """``--max-pixels N`` (default ``$PAVONINE_MAX_PIXELS``): the pixel budget of images read."""
+    from pavonine.limits import DEFAULT_MAX_PIXELS, MAX_PIXELS_ENV
+
+    return click.option(
+        "--max-pixels",
+        type=click.IntRange(min=1),
+        expose_value=False,
+        is_eager=True,
+        callback=_apply_max_pixels,
+        metavar="N",
+        help=f"Pixel budget of every image read, checked from its header before decoding "
+        f"[default: ${MAX_PIXELS_ENV}, else {DEFAULT_MAX_PIXELS:,}].",
+    )(func)
