@@ -10,8 +10,11 @@ config, ``sRGB - Display``, ``Un-tone-mapped``), recorded as ``pavonine:ocio_con
 ``pavonine:display``, ``pavonine:view`` and ``pavonine:exposure`` so that readers can invert the
 right transform. :func:`write_display_png` writes images that already are display-referred
 (heat-maps).
-Every file is written atomically (a temporary file renamed on success);
-:func:`write_render` writes an EXR and its PNG so that both appear or neither does.
+Every file is written atomically (a temporary file renamed on success); :func:`write_renders`
+writes a render's EXR, variance EXR and PNG under temporary names first and renames them as one
+journalled group (:func:`pavonine.pipeline.commit.commit_files`): EXR, then variance, then PNG.
+All files of one call share a ``pavonine:render_id`` header attribute, so a reader can tell
+whether an EXR and a PNG come from the same render (docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import json
 import os
 import re
 import tempfile
+import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +33,12 @@ from typing import Any
 import numpy as np
 
 from pavonine.materials.display import DisplayTransform, current_display
-from pavonine.pipeline.errors import InputError, atomic_path
+from pavonine.pipeline.errors import (
+    InputError,
+    atomic_path,
+    diagnose_write_failure,
+    scrub_temporaries,
+)
 
 EXR_COLORSPACE = "lin_rec709_scene"
 REC709_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
@@ -75,22 +84,32 @@ def write_exr(
 
 
 def write_png(
-    path: str | os.PathLike, rgb: np.ndarray, display: DisplayTransform | None = None
+    path: str | os.PathLike,
+    rgb: np.ndarray,
+    display: DisplayTransform | None = None,
+    *,
+    attributes: Mapping[str, str] | None = None,
 ) -> None:
-    """Write scene-linear ``rgb`` as an 8-bit PNG through ``display`` (default: the current one)."""
+    """Write scene-linear ``rgb`` as an 8-bit PNG through ``display`` (default: the current one);
+    ``attributes``: further header attributes (``pavonine:render_id``)."""
     pixels = _check_rgb(rgb)
     transform = display or current_display()
     encoded = transform.encode(np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0))
-    write_display_png(path, encoded, transform)
+    write_display_png(path, encoded, transform, attributes=attributes)
 
 
 def write_display_png(
-    path: str | os.PathLike, display: np.ndarray, transform: DisplayTransform | None = None
+    path: str | os.PathLike,
+    display: np.ndarray,
+    transform: DisplayTransform | None = None,
+    *,
+    attributes: Mapping[str, str] | None = None,
 ) -> None:
     """Write a display-referred H×W×C image (C = 1, 3 or 4, values in [0, 1]) as an 8-bit PNG.
 
     ``transform``: the display transform the pixels were encoded with (recorded in the header);
-    ``None`` for images that are not renders (heat-maps).
+    ``None`` for images that are not renders (heat-maps). ``attributes``: further header
+    attributes.
     """
     import OpenImageIO as oiio
 
@@ -108,6 +127,8 @@ def write_display_png(
         spec.attribute("Software", f"pavonine (OCIO view {transform.view!r})")
         for key, value in transform.attributes().items():
             spec.attribute(key, value)
+    for key, value in (attributes or {}).items():
+        spec.attribute(key, value)
     _write(path, np.ascontiguousarray(encoded), spec)
 
 
@@ -181,23 +202,43 @@ class RenderFiles:
 
 def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | None = None) -> None:
     """Write several images' files: all of them appear, or none does. PNGs go through
-    ``display`` (default: the current display transform)."""
+    ``display`` (default: the current display transform).
+
+    Every file is written complete under a hidden temporary name beside its target; then all
+    are renamed as one journalled group (per image: EXR, variance, PNG; see
+    :func:`pavonine.pipeline.commit.commit_files`), after finishing what a crashed earlier run
+    left in the same folders (:func:`pavonine.pipeline.commit.recover`). Every file carries the
+    same ``pavonine:render_id``.
+    """
+    from pavonine.pipeline.commit import commit_files, recover, temporary_file
+
+    render_id = uuid.uuid4().hex
+    for folder in {Path(os.path.abspath(p)).parent for out in outputs for p in _paths(out)}:
+        recover(folder)
     with contextlib.ExitStack() as stack:
-        temporaries = []
+        moves: list[tuple[Path, Path]] = []
         for out in outputs:
-            exr_tmp = stack.enter_context(atomic_path(out.exr_path))
-            png_tmp = stack.enter_context(atomic_path(out.png_path)) if out.png_path else None
-            var_tmp = (
-                stack.enter_context(atomic_path(out.variance_path)) if out.variance_path else None
-            )
-            temporaries.append((out, exr_tmp, png_tmp, var_tmp))
-        for out, exr_tmp, png_tmp, var_tmp in temporaries:
-            write_exr(exr_tmp, out.rgb, out.metadata, layers=out.layers)
-            if png_tmp is not None:
-                write_png(png_tmp, out.rgb, display)
-            if var_tmp is not None:
+            exr_tmp = stack.enter_context(temporary_file(out.exr_path))
+            metadata = {**(out.metadata or {}), "render_id": render_id}
+            write_exr(exr_tmp, out.rgb, metadata, layers=out.layers)
+            moves.append((exr_tmp, Path(out.exr_path)))
+            if out.variance_path:
+                var_tmp = stack.enter_context(temporary_file(out.variance_path))
                 quantity = {"quantity": "variance of the mean (scene-linear units squared)"}
-                write_exr(var_tmp, out.variance, {**(out.metadata or {}), **quantity})
+                write_exr(var_tmp, out.variance, {**metadata, **quantity})
+                moves.append((var_tmp, Path(out.variance_path)))
+            if out.png_path:
+                png_tmp = stack.enter_context(temporary_file(out.png_path))
+                write_png(png_tmp, out.rgb, display, attributes={"pavonine:render_id": render_id})
+                moves.append((png_tmp, Path(out.png_path)))
+        try:
+            commit_files(moves)
+        except OSError as exc:
+            raise InputError(str(out.exr_path), f"cannot write: {exc.strerror or exc}") from None
+
+
+def _paths(out: RenderFiles) -> list[str | os.PathLike]:
+    return [p for p in (out.exr_path, out.png_path, out.variance_path) if p]
 
 
 def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
@@ -232,6 +273,7 @@ def _write(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
             raise InputError(os.fspath(path), f"cannot write this image format: {oiio.geterror()}")
         try:
             if not out.open(os.fspath(tmp), spec) or not out.write_image(pixels):
-                raise InputError(os.fspath(path), f"cannot write image: {out.geterror()}")
+                reason = diagnose_write_failure(tmp) or scrub_temporaries(out.geterror(), path)
+                raise InputError(os.fspath(path), f"cannot write image: {reason}")
         finally:
             out.close()
