@@ -55,9 +55,11 @@ def usd_reason(exc: BaseException) -> str:
     for number in WRITE_ERRNOS:
         if os.strerror(number) in text:
             return os.strerror(number)
-    match = re.search(r" : '([^']*)'", text)
-    reason = match.group(1) if match else text
-    return " ".join(reason.split())[:300]
+    for part in re.split(r"(?:\n\s*|,\s*)(?=Error in ')", text):
+        match = re.search(r" : '(.*)'\W*$", part.strip(), re.S)
+        if match:
+            return " ".join(match.group(1).split())[:300]
+    return " ".join(text.split())[:300]
 
 
 def diagnose_write_failure(path: str | os.PathLike) -> str | None:

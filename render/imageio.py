@@ -20,6 +20,7 @@ whether an EXR and a PNG come from the same render (docs/reliability.md).
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -265,15 +266,55 @@ def _check_rgb(rgb: np.ndarray) -> np.ndarray:
 
 
 def _write(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
+    write_image_file(path, pixels, spec)
+
+
+def write_image_file(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
+    """Write ``pixels`` (H×W×C) with OpenImageIO ``spec`` to ``path`` atomically.
+
+    OpenImageIO reports some failures only when the file is closed (OpenEXR writes its chunks
+    then), so ``close()`` is checked too: a full disk or a file-size limit never commits a
+    truncated image. Its errors name ``path`` and, where OpenImageIO does not, the cause
+    (:func:`pavonine.pipeline.errors.diagnose_write_failure`).
+    """
     import OpenImageIO as oiio
 
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(os.fspath(tmp))
         if out is None:
             raise InputError(os.fspath(path), f"cannot write this image format: {oiio.geterror()}")
-        try:
-            if not out.open(os.fspath(tmp), spec) or not out.write_image(pixels):
-                reason = diagnose_write_failure(tmp) or scrub_temporaries(out.geterror(), path)
-                raise InputError(os.fspath(path), f"cannot write image: {reason}")
-        finally:
-            out.close()
+        written = out.open(os.fspath(tmp), spec) and out.write_image(pixels)
+        error = out.geterror()
+        closed = out.close()
+        if not (written and closed):
+            message = error or out.geterror() or "the image library gave no reason"
+            reason = diagnose_write_failure(tmp) or scrub_temporaries(message, path)
+            raise InputError(os.fspath(path), f"cannot write image: {reason}")
+        reason = _silently_truncated(tmp)
+        if reason is not None:
+            raise InputError(os.fspath(path), f"cannot write image: {reason}")
+
+
+def _silently_truncated(path: Path) -> str | None:
+    """Why a file OpenImageIO reported as written is incomplete, or ``None``.
+
+    OpenEXR does not report a short write, so a file that reached the file-size limit, or an
+    EXR written on a disk that is now full and does not read back, is refused before it is
+    committed. Costs a ``stat`` (and, on a nearly full disk only, a read).
+    """
+    import resource
+
+    import OpenImageIO as oiio
+
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if limit != resource.RLIM_INFINITY and path.stat().st_size >= limit:
+        return os.strerror(errno.EFBIG)
+    stats = os.statvfs(path.parent)
+    if path.suffix.lower() != ".exr" or stats.f_bavail * stats.f_frsize >= 1 << 20:
+        return None  # libpng reports short writes itself
+    image = oiio.ImageInput.open(os.fspath(path))
+    readable = image is not None and image.read_image(oiio.FLOAT) is not None
+    if image is not None:
+        readable = readable and not image.has_error
+        image.close()
+    return None if readable else os.strerror(errno.ENOSPC)

@@ -80,6 +80,29 @@ def test_convert_force_crash_leaves_the_old_or_the_new_asset_never_nothing(
     assert hidden_entries(outdir) == []
 
 
+@pytest.mark.parametrize("step", ["staging.written", "folder.exchanged"])
+def test_assemble_force_crash_leaves_the_old_or_the_new_assembly(tmp_path, step):
+    shipped = (REPO / "assets" / "recipes" / "peacock_train.toml").read_text()
+    text = shipped.replace('"../feathers/', f'"{REPO / "assets" / "feathers"}/')
+    recipes = {}
+    for label, seed in (("old", "7"), ("new", "8")):
+        recipes[label] = tmp_path / f"{label}.toml"
+        recipes[label].write_text(text.replace("\nseed = 7\n", f"\nseed = {seed}\n"))
+    versions = {}
+    for label in ("new", "old"):  # the old one stays in place
+        run = pavonine("assemble", "train", recipes[label], "-o", tmp_path / "out", "--force")
+        assert run.returncode == 0, run.stderr
+        versions[label] = snapshot(tmp_path / "out" / "peacock_train")
+    assert versions["old"] != versions["new"]
+    killed = pavonine("assemble", "train", recipes["new"], "-o", tmp_path / "out", "--force",
+                      fault=step)  # fmt: skip
+    assert killed.killed
+    expected = {"staging.written": "old", "folder.exchanged": "new"}[step]
+    assert version_of(snapshot(tmp_path / "out" / "peacock_train"), versions) == expected
+    recover(tmp_path / "out")
+    assert hidden_entries(tmp_path / "out") == []
+
+
 @pytest.mark.convert
 def test_readers_polling_the_asset_during_convert_force_never_see_it_missing(feathers, tmp_path):
     outdir = old_asset(feathers, tmp_path)
