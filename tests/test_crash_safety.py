@@ -80,6 +80,26 @@ def test_convert_force_crash_leaves_the_old_or_the_new_asset_never_nothing(
     assert hidden_entries(outdir) == []
 
 
+@pytest.mark.convert
+@pytest.mark.parametrize("step", ["staging.written", "folder.exchanged"])
+def test_bake_crash_leaves_the_old_or_the_new_asset(feathers, tmp_path, step):
+    outdir = old_asset(feathers, tmp_path)
+    versions = {"old": feathers["versions"]["old"]}
+    scratch = tmp_path / "scratch"
+    shutil.copytree(outdir, scratch)
+    assert pavonine("bake", scratch / "tiny", "--resolution", "16", "-q").returncode == 0
+    versions["new"] = snapshot(scratch / "tiny")
+    assert versions["new"] != versions["old"]
+    killed = pavonine("bake", outdir / "tiny", "--resolution", "16", fault=step)
+    assert killed.killed
+    expected = {"staging.written": "old", "folder.exchanged": "new"}[step]
+    assert version_of(snapshot(outdir / "tiny"), versions) == expected
+    again = pavonine("bake", outdir / "tiny", "--resolution", "16", "-q")
+    assert again.returncode == 0, again.stderr
+    assert version_of(snapshot(outdir / "tiny"), versions) == "new"
+    assert hidden_entries(outdir) == []
+
+
 @pytest.mark.parametrize("step", ["staging.written", "folder.exchanged"])
 def test_assemble_force_crash_leaves_the_old_or_the_new_assembly(tmp_path, step):
     shipped = (REPO / "assets" / "recipes" / "peacock_train.toml").read_text()
