@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import functools
 import json
 import os
 import shutil
@@ -61,6 +62,11 @@ def temporary_prefix(name: str, kind: str) -> str:
     return f".{name}{TEMPORARY_MARK}{kind}-{os.getpid()}-"
 
 
+@functools.cache
+def _libc() -> ctypes.CDLL:
+    return ctypes.CDLL(None, use_errno=True)
+
+
 def exchange(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """Swap two existing paths atomically (``renameat2(RENAME_EXCHANGE)``).
 
@@ -69,8 +75,7 @@ def exchange(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """
     if not exchange_supported:
         return False
-    libc = ctypes.CDLL(None, use_errno=True)
-    renameat2 = getattr(libc, "renameat2", None)
+    renameat2 = getattr(_libc(), "renameat2", None)
     if renameat2 is None:  # glibc < 2.28
         return False
     result = renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE)
@@ -89,8 +94,9 @@ def _umask() -> int:
 
 
 def make_folder(folder: Path) -> list[Path]:
-    """``mkdir -p folder``; returns the folders it created, deepest first (to undo it)."""
-    folder = Path(os.path.abspath(folder))
+    """``mkdir -p folder``; returns the folders it created, deepest first (to undo it). A
+    folder that cannot be made is a one-line :class:`InputError` naming it."""
+    folder = Path(folder)
     missing = []
     while not os.path.lexists(folder) and folder != folder.parent:
         missing.append(folder)
@@ -100,6 +106,9 @@ def make_folder(folder: Path) -> list[Path]:
             path.mkdir()
         except FileExistsError:
             pass
+        except OSError as exc:
+            remove_if_empty(missing)
+            raise InputError(str(path), f"cannot write: {exc.strerror or exc}") from None
     return missing
 
 
@@ -110,6 +119,28 @@ def remove_if_empty(folders: Sequence[Path]) -> None:
             folder.rmdir()
         except OSError:
             return
+
+
+@contextmanager
+def _staging_in(folder: Path, name: str, target: Path) -> Iterator[Path]:
+    """A hidden staging folder for ``name`` inside ``folder`` (after :func:`recover`), removed
+    on exit; errors while writing it become one-line :class:`InputError` naming ``target``."""
+    staging = None
+    try:
+        recover(folder)
+        staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(name, STAGING), dir=folder))
+        staging.chmod(0o777 & ~_umask())  # mkdtemp makes 0700; an asset folder is shared
+        yield staging
+    except (OSError, RuntimeError, InputError) as exc:
+        if isinstance(exc, FileExistsError) and exc.filename == str(target):
+            raise
+        mapped = write_error(exc, target, staging)
+        if mapped is None:
+            raise
+        raise mapped from None
+    finally:
+        if staging is not None and staging.exists():
+            shutil.rmtree(staging, ignore_errors=True)
 
 
 @contextmanager
@@ -127,25 +158,12 @@ def staged_folder(
     """
     target = Path(target)
     created = make_folder(target.parent)
-    staging = None
     try:
-        recover(target.parent)
-        staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name, STAGING),
-                                        dir=target.parent))  # fmt: skip
-        staging.chmod(0o777 & ~_umask())  # mkdtemp makes 0700; an asset folder is shared
-        yield staging
-        checkpoint("staging.written", subject)
-        commit_folder(staging, target, replace=replace, subject=subject)
-    except (OSError, RuntimeError, InputError) as exc:
-        if isinstance(exc, FileExistsError) and exc.filename == str(target):
-            raise
-        mapped = write_error(exc, target, staging)
-        if mapped is None:
-            raise
-        raise mapped from None
+        with _staging_in(target.parent, target.name, target) as staging:
+            yield staging
+            checkpoint("staging.written", subject)
+            commit_folder(staging, target, replace=replace, subject=subject)
     finally:
-        if staging is not None and staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
         if not target.exists():
             remove_if_empty(created)
 
@@ -227,25 +245,15 @@ def staged_files(folder: str | os.PathLike, subject: str | None = None) -> Itera
     :class:`InputError` naming ``folder``."""
     folder = Path(folder)
     created = make_folder(folder)
-    staging = None
     committed = False
     try:
-        recover(folder)
-        staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(folder.name, STAGING),
-                                        dir=folder))  # fmt: skip
-        yield staging
-        names = sorted(p.name for p in staging.iterdir() if not p.is_dir())
-        checkpoint("staging.written", subject)
-        commit_files([(staging / n, folder / n) for n in names], subject)
-        committed = True
-    except (OSError, RuntimeError, InputError) as exc:
-        mapped = write_error(exc, folder, staging)
-        if mapped is None:
-            raise
-        raise mapped from None
+        with _staging_in(folder, folder.name, folder) as staging:
+            yield staging
+            names = sorted(p.name for p in staging.iterdir() if not p.is_dir())
+            checkpoint("staging.written", subject)
+            commit_files([(staging / n, folder / n) for n in names], subject)
+            committed = True
     finally:
-        if staging is not None and staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
         if not committed:
             remove_if_empty(created)
 
@@ -253,12 +261,12 @@ def staged_files(folder: str | os.PathLike, subject: str | None = None) -> Itera
 @contextmanager
 def temporary_file(target: str | os.PathLike) -> Iterator[Path]:
     """Yield a hidden temporary path beside ``target`` (its folder created), for
-    :func:`commit_files`; removed on exit if still there. Write errors become one-line
-    :class:`InputError` naming ``target``."""
+    :func:`commit_files` or :func:`pavonine.pipeline.errors.atomic_path`; removed on exit if
+    still there. Write errors about it become one-line :class:`InputError` naming ``target``;
+    an ``OSError`` about another file (an input) names itself."""
     target = Path(target)
-    created = []
+    created = make_folder(target.parent)
     try:
-        created = make_folder(target.parent)
         fd, name = tempfile.mkstemp(
             prefix=temporary_prefix(target.stem, "tmp"), suffix=target.suffix, dir=target.parent
         )
@@ -271,6 +279,8 @@ def temporary_file(target: str | os.PathLike) -> Iterator[Path]:
     try:
         yield tmp
     except (OSError, RuntimeError, InputError) as exc:
+        if isinstance(exc, OSError) and exc.filename not in (str(tmp), str(target), None):
+            raise
         mapped = write_error(exc, target, tmp)
         if mapped is None:
             raise
@@ -312,7 +322,7 @@ def commit_files(moves: Sequence[tuple[Path, Path]], subject: str | None = None)
 def _owner_alive(name: str) -> bool:
     """Whether the process that made temporary ``name`` still runs (``-<kind>-<pid>-``)."""
     try:
-        pid = int(name.split(TEMPORARY_MARK, 1)[1].split("-")[1])
+        pid = int(name.rsplit(TEMPORARY_MARK, 1)[1].split("-")[1])
     except (IndexError, ValueError):
         return True  # not one of ours after all: leave it
     if pid == os.getpid():
@@ -324,6 +334,16 @@ def _owner_alive(name: str) -> bool:
     except PermissionError:
         return True
     return True
+
+
+def _manifest(staging: Path) -> dict | None:
+    """The fallback commit's manifest in ``staging``, if complete (one cut short by a crash
+    was written before any file moved: the staging folder is then simply deleted)."""
+    try:
+        record = json.loads((staging / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) and {"target", "files"} <= set(record) else None
 
 
 def recover(folder: str | os.PathLike) -> list[str]:
@@ -350,9 +370,8 @@ def recover(folder: str | os.PathLike) -> list[str]:
         path.unlink(missing_ok=True)
     for name in (n for n in stale if f"{TEMPORARY_MARK}{JOURNAL}-" not in n):
         path = folder / name
-        manifest = path / MANIFEST
-        if manifest.is_file():
-            record = json.loads(manifest.read_text(encoding="utf-8"))
+        record = _manifest(path)
+        if record is not None:
             _finish_moves(path, folder / record["target"], record["files"])
             done.append(f"completed {folder / record['target']}")
         elif path.is_dir() and not path.is_symlink():

@@ -6,7 +6,6 @@ import errno
 import functools
 import os
 import re
-import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -145,35 +144,17 @@ def one_line_errors(func: F) -> F:
 def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; rename it over ``target`` only on success.
 
-    An ``OSError`` about the temporary file (or its folder) is reported as an
-    :class:`InputError` naming ``target``, which is what the user asked to write.
+    An ``OSError`` or a USD error about the temporary file (or its folder) is reported as an
+    :class:`InputError` naming ``target``, which is what the user asked to write
+    (:func:`pavonine.pipeline.commit.temporary_file`).
     """
+    from pavonine.pipeline.commit import temporary_file
+
     target = Path(target)
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{target.stem}{TEMPORARY_MARK}tmp-{os.getpid()}-",
-            suffix=target.suffix,
-            dir=target.parent,
-        )
-    except OSError as exc:
-        raise InputError(str(target), f"cannot write: {exc.strerror or exc}") from None
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        if tmp_path.exists():  # mkstemp creates 0600: give the file the permissions open() would
+    with temporary_file(target) as tmp:
+        yield tmp
+        if tmp.exists():  # a writer may have replaced it: the permissions open() would give
             umask = os.umask(0)
             os.umask(umask)
-            tmp_path.chmod(0o666 & ~umask)
-        os.replace(tmp_path, target)
-    except (OSError, RuntimeError, InputError) as exc:
-        if isinstance(exc, OSError) and exc.filename not in (str(tmp_path), str(target), None):
-            raise  # about another file (an input): it names itself
-        mapped = write_error(exc, target, tmp_path)
-        if mapped is None:
-            raise
-        raise mapped from None
-    finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
+            tmp.chmod(0o666 & ~umask)
+        os.replace(tmp, target)

@@ -132,7 +132,7 @@ def test_maps_over_an_existing_set_on_a_full_disk_keeps_the_old_set(tmp_path):
         first = pavonine("maps", "eye", "-o", disk / "maps", "--size", "64", "-q")
         assert first.returncode == 0, first.stderr
         before = {p.name: p.read_bytes() for p in (disk / "maps").iterdir()}
-        run = pavonine("maps", "eye", "-o", disk / "maps", "--size", "2048", "-q")
+        run = pavonine("maps", "eye", "-o", disk / "maps", "--size", "1024", "-q")
         one_line_error(run, disk / "maps", FULL)
         assert {p.name: p.read_bytes() for p in (disk / "maps").iterdir()} == before
 
