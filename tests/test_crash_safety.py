@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import shutil
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -144,6 +145,7 @@ def test_readers_polling_the_asset_during_convert_force_never_see_it_missing(fea
                 seen["missing"] += 1
                 continue
             seen["other"] += digest not in contents
+            time.sleep(0.0002)  # leave the converter a core; a swap is one step either way
 
     reader = threading.Thread(target=poll)
     reader.start()
