@@ -262,8 +262,8 @@ def staged_files(folder: str | os.PathLike, subject: str | None = None) -> Itera
 def temporary_file(target: str | os.PathLike) -> Iterator[Path]:
     """Yield a hidden temporary path beside ``target`` (its folder created), for
     :func:`commit_files` or :func:`pavonine.pipeline.errors.atomic_path`; removed on exit if
-    still there. Write errors about it become one-line :class:`InputError` naming ``target``;
-    an ``OSError`` about another file (an input) names itself."""
+    still there. Write errors about it become one-line :class:`InputError` naming ``target``
+    (:func:`pavonine.pipeline.errors.write_error`)."""
     target = Path(target)
     created = make_folder(target.parent)
     try:
@@ -279,8 +279,6 @@ def temporary_file(target: str | os.PathLike) -> Iterator[Path]:
     try:
         yield tmp
     except (OSError, RuntimeError, InputError) as exc:
-        if isinstance(exc, OSError) and exc.filename not in (str(tmp), str(target), None):
-            raise
         mapped = write_error(exc, target, tmp)
         if mapped is None:
             raise

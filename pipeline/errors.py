@@ -95,7 +95,7 @@ def write_error(
 ) -> InputError | None:
     """``exc``, raised while writing ``target`` (through ``temporary``, a hidden file or staging
     folder), as a one-line :class:`InputError` naming ``target``; ``None`` if it is not a write
-    error (a bug, or bad input that already names its file).
+    error (a bug, or an error about another file, an input, that names itself).
 
     OS errors and USD's own write errors become ``<target>: cannot write: <what failed>``; an
     :class:`InputError` that names the temporary is renamed to name ``target``.
@@ -107,7 +107,10 @@ def write_error(
         return None
     if isinstance(exc, OSError):
         named = os.fspath(exc.filename) if exc.filename is not None else ""
-        if temporary is not None and named.startswith(str(temporary)) and named != str(temporary):
+        inside = temporary is not None and named.startswith(str(temporary))
+        if named and not (inside or named.startswith(where) or TEMPORARY_MARK in named):
+            return None  # about another file (an input): it names itself
+        if inside and named != str(temporary):
             named = where + named[len(str(temporary)) :]
         if not named or TEMPORARY_MARK in named:
             named = where

@@ -197,3 +197,10 @@ def test_a_usd_error_reaching_the_command_line_is_one_line_not_a_traceback(capsy
         pytest.fail("a USD error escaped one_line_errors")
     else:
         pytest.skip("this USD build reports a failed Export without raising")
+
+
+def test_an_os_error_about_an_input_is_not_called_a_write_error(tmp_path):
+    """Only errors about the output (its temporaries, its folder) become 'cannot write'."""
+    missing = OSError(errno.ENOENT, "No such file or directory", "/inputs/maps/alpha.png")
+    staging = tmp_path / ".a.pavonine-staging-1-x"
+    assert write_error(missing, tmp_path / "a", staging) is None
