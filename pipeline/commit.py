@@ -28,6 +28,7 @@ live one. The guarantees cover process crashes (``SIGKILL``, out of memory); fil
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import functools
@@ -138,8 +139,8 @@ def _staging_in(folder: Path, name: str, target: Path) -> Iterator[Path]:
         if mapped is None:
             raise
         raise mapped from None
-    finally:
-        if staging is not None and staging.exists():
+    finally:  # a fallback commit that could not finish keeps its manifest for recover()
+        if staging is not None and staging.exists() and _manifest(staging) is None:
             shutil.rmtree(staging, ignore_errors=True)
 
 
@@ -206,7 +207,11 @@ def move_into(staging: Path, target: Path, subject: str | None = None) -> None:
         if not p.is_dir() and p.name != MANIFEST
     )
     (staging / MANIFEST).write_text(json.dumps({"target": target.name, "files": files}))
-    _finish_moves(staging, target, files, subject)
+    try:
+        _finish_moves(staging, target, files, subject)
+    except BaseException:  # Ctrl-C half-way: roll forward rather than leave a mix
+        _finish_moves(staging, target, files)
+        raise
 
 
 def _finish_moves(
@@ -305,7 +310,11 @@ def commit_files(moves: Sequence[tuple[Path, Path]], subject: str | None = None)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as out:
             json.dump([[os.path.abspath(a), os.path.abspath(b)] for a, b in moves], out)
-        checkpoint("files.journal", subject)
+    except BaseException:
+        os.unlink(journal)
+        raise
+    checkpoint("files.journal", subject)
+    try:
         for i, (tmp, target) in enumerate(moves):
             try:
                 os.replace(tmp, target)
@@ -313,6 +322,12 @@ def commit_files(moves: Sequence[tuple[Path, Path]], subject: str | None = None)
                 raise InputError(str(target), f"cannot write: {exc.strerror or exc}") from None
             if i == 0:
                 checkpoint("files.renaming", subject)
+    except BaseException:  # Ctrl-C or a failed rename: the journal is the commit point
+        for tmp, target in moves:
+            if os.path.lexists(tmp):
+                with contextlib.suppress(OSError):
+                    os.replace(tmp, target)
+        raise
     finally:
         os.unlink(journal)
 

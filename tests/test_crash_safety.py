@@ -362,3 +362,29 @@ def test_maps_crash_leaves_whole_maps_and_recovery_completes_the_set(tmp_path, s
     assert version_of(snapshot(outdir), versions) == "new"
     assert hidden_entries(outdir) == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["maps"]
+
+
+@pytest.mark.parametrize("step", ["files.renaming", "folder.moving"])
+def test_ctrl_c_in_the_middle_of_a_commit_rolls_it_forward(tmp_path, monkeypatch, step):
+    """An interrupt between two renames of a group (or two moves of the fallback) finishes the
+    commit before it propagates: never a mix left behind by a handled interruption."""
+    from pavonine.pipeline import commit
+
+    def interrupt(reached: str, subject: str | None = None) -> None:
+        if reached == step:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(commit, "checkpoint", interrupt)
+    monkeypatch.setattr(commit, "exchange_supported", False)
+    old = _tree(tmp_path / "out", {"a.exr": "old", "a.png": "old", "b.txt": "old"})
+    with pytest.raises(KeyboardInterrupt):
+        if step == "files.renaming":
+            temporaries = _tree(tmp_path / "new", {"a.exr": "new", "a.png": "new"})
+            commit.commit_files([(temporaries / n, old / n) for n in ("a.exr", "a.png")])
+        else:
+            with commit.staged_folder(old, replace=True) as staging:
+                _tree(staging, {"a.exr": "new", "a.png": "new", "b.txt": "new"})
+    assert {p.name: p.read_text() for p in old.iterdir()} == {
+        "a.exr": "new", "a.png": "new", "b.txt": "new" if step == "folder.moving" else "old",
+    }  # fmt: skip
+    assert hidden_entries(tmp_path / "out") == [] and hidden_entries(tmp_path) == []
