@@ -151,9 +151,10 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
     :class:`InputError` naming ``target``, which is what the user asked to write
     (:func:`pavonine.pipeline.commit.temporary_file`).
     """
-    from pavonine.pipeline.commit import temporary_file
+    from pavonine.pipeline.commit import recover, temporary_file
 
     target = Path(target)
+    recover(target.parent)  # what killed writers left here
     with temporary_file(target) as tmp:
         yield tmp
         if tmp.exists():  # a writer may have replaced it: the permissions open() would give
