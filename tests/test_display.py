@@ -113,7 +113,9 @@ def test_ocio_env_changes_the_png_and_compare_reads_it_back(tmp_path, gamma2):
     assert np.array_equal(linear, linear_b)  # same render, only the display transform differs
     expected = np.round(np.sqrt(np.clip(linear, 0, 1)) * 255) / 255
     assert np.abs(png - expected).max() <= 1 / 255 + 1e-6
-    assert np.abs(png - pinned_png).max() > 10 / 255  # sRGB and gamma 2 really differ here
+    assert (
+        np.abs(png - pinned_png).max() > 5 / 255
+    )  # the pinned view and gamma 2 really differ (rounding is 1/255)
     assert attributes["pavonine:ocio_config"] == str(gamma2)
     assert (attributes["pavonine:display"], attributes["pavonine:view"]) == (
         "Test Display",
