@@ -10,17 +10,22 @@ config, ``sRGB - Display``, ``Un-tone-mapped``), recorded as ``pavonine:ocio_con
 ``pavonine:display``, ``pavonine:view`` and ``pavonine:exposure`` so that readers can invert the
 right transform. :func:`write_display_png` writes images that already are display-referred
 (heat-maps).
-Every file is written atomically (a temporary file renamed on success);
-:func:`write_render` writes an EXR and its PNG so that both appear or neither does.
+Every file is written atomically (a temporary file renamed on success); :func:`write_renders`
+writes a render's EXR, variance EXR and PNG under temporary names first and renames them as one
+journalled group (:func:`pavonine.pipeline.commit.commit_files`): EXR, then variance, then PNG.
+All files of one call share a ``pavonine:render_id`` header attribute, so a reader can tell
+whether an EXR and a PNG come from the same render (docs/reliability.md).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
 import tempfile
+import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +34,12 @@ from typing import Any
 import numpy as np
 
 from pavonine.materials.display import DisplayTransform, current_display
-from pavonine.pipeline.errors import InputError, atomic_path
+from pavonine.pipeline.errors import (
+    InputError,
+    atomic_path,
+    diagnose_write_failure,
+    scrub_temporaries,
+)
 
 EXR_COLORSPACE = "lin_rec709_scene"
 REC709_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
@@ -75,22 +85,32 @@ def write_exr(
 
 
 def write_png(
-    path: str | os.PathLike, rgb: np.ndarray, display: DisplayTransform | None = None
+    path: str | os.PathLike,
+    rgb: np.ndarray,
+    display: DisplayTransform | None = None,
+    *,
+    attributes: Mapping[str, str] | None = None,
 ) -> None:
-    """Write scene-linear ``rgb`` as an 8-bit PNG through ``display`` (default: the current one)."""
+    """Write scene-linear ``rgb`` as an 8-bit PNG through ``display`` (default: the current one);
+    ``attributes``: further header attributes (``pavonine:render_id``)."""
     pixels = _check_rgb(rgb)
     transform = display or current_display()
     encoded = transform.encode(np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0))
-    write_display_png(path, encoded, transform)
+    write_display_png(path, encoded, transform, attributes=attributes)
 
 
 def write_display_png(
-    path: str | os.PathLike, display: np.ndarray, transform: DisplayTransform | None = None
+    path: str | os.PathLike,
+    display: np.ndarray,
+    transform: DisplayTransform | None = None,
+    *,
+    attributes: Mapping[str, str] | None = None,
 ) -> None:
     """Write a display-referred H×W×C image (C = 1, 3 or 4, values in [0, 1]) as an 8-bit PNG.
 
     ``transform``: the display transform the pixels were encoded with (recorded in the header);
-    ``None`` for images that are not renders (heat-maps).
+    ``None`` for images that are not renders (heat-maps). ``attributes``: further header
+    attributes.
     """
     import OpenImageIO as oiio
 
@@ -108,6 +128,8 @@ def write_display_png(
         spec.attribute("Software", f"pavonine (OCIO view {transform.view!r})")
         for key, value in transform.attributes().items():
             spec.attribute(key, value)
+    for key, value in (attributes or {}).items():
+        spec.attribute(key, value)
     _write(path, np.ascontiguousarray(encoded), spec)
 
 
@@ -132,10 +154,13 @@ def png_view(attributes: Mapping[str, Any]) -> str | None:
 def check_writable(path: str | os.PathLike) -> None:
     """Raise a one-line :class:`InputError` unless a file can be created at ``path``.
 
-    Probes the output's folder (or, if it does not exist yet, its nearest existing ancestor,
-    which :func:`atomic_path` would create the rest in) with a temporary file, so that an
-    unwritable output is found before a long render rather than after it.
+    Probes the output's folder with a temporary file, so that an unwritable output is found
+    before a long render rather than after it. While that folder does not exist yet, its
+    nearest existing ancestor (which :func:`atomic_path` would create the rest in) is only
+    inspected, never written to: nothing is written outside the output's folder.
     """
+    from pavonine.pipeline.commit import temporary_prefix
+
     target = Path(path)
     if target.is_dir():
         raise InputError(str(path), "is a folder, expected a file name")
@@ -144,8 +169,14 @@ def check_writable(path: str | os.PathLike) -> None:
         folder = folder.parent
     if not folder.is_dir():
         raise InputError(str(path), f"cannot write here: {folder} is not a folder")
+    if folder != target.parent:
+        if os.statvfs(folder).f_flag & os.ST_RDONLY:
+            raise InputError(str(path), f"cannot write here ({os.strerror(errno.EROFS)})")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise InputError(str(path), f"cannot write here ({os.strerror(errno.EACCES)})")
+        return
     try:
-        fd, probe = tempfile.mkstemp(prefix=".pavonine-probe.", dir=folder)
+        fd, probe = tempfile.mkstemp(prefix=temporary_prefix("probe", "tmp"), dir=folder)
     except OSError as exc:
         raise InputError(str(path), f"cannot write here ({exc.strerror or exc})") from None
     os.close(fd)
@@ -181,23 +212,43 @@ class RenderFiles:
 
 def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | None = None) -> None:
     """Write several images' files: all of them appear, or none does. PNGs go through
-    ``display`` (default: the current display transform)."""
+    ``display`` (default: the current display transform).
+
+    Every file is written complete under a hidden temporary name beside its target; then all
+    are renamed as one journalled group (per image: EXR, variance, PNG; see
+    :func:`pavonine.pipeline.commit.commit_files`), after finishing what a crashed earlier run
+    left in the same folders (:func:`pavonine.pipeline.commit.recover`). Every file carries the
+    same ``pavonine:render_id``.
+    """
+    from pavonine.pipeline.commit import commit_files, recover, temporary_file
+
+    render_id = uuid.uuid4().hex
+    for folder in {Path(os.path.abspath(p)).parent for out in outputs for p in _paths(out)}:
+        recover(folder)
     with contextlib.ExitStack() as stack:
-        temporaries = []
+        moves: list[tuple[Path, Path]] = []
         for out in outputs:
-            exr_tmp = stack.enter_context(atomic_path(out.exr_path))
-            png_tmp = stack.enter_context(atomic_path(out.png_path)) if out.png_path else None
-            var_tmp = (
-                stack.enter_context(atomic_path(out.variance_path)) if out.variance_path else None
-            )
-            temporaries.append((out, exr_tmp, png_tmp, var_tmp))
-        for out, exr_tmp, png_tmp, var_tmp in temporaries:
-            write_exr(exr_tmp, out.rgb, out.metadata, layers=out.layers)
-            if png_tmp is not None:
-                write_png(png_tmp, out.rgb, display)
-            if var_tmp is not None:
+            exr_tmp = stack.enter_context(temporary_file(out.exr_path))
+            metadata = {**(out.metadata or {}), "render_id": render_id}
+            write_exr(exr_tmp, out.rgb, metadata, layers=out.layers)
+            moves.append((exr_tmp, Path(out.exr_path)))
+            if out.variance_path:
+                var_tmp = stack.enter_context(temporary_file(out.variance_path))
                 quantity = {"quantity": "variance of the mean (scene-linear units squared)"}
-                write_exr(var_tmp, out.variance, {**(out.metadata or {}), **quantity})
+                write_exr(var_tmp, out.variance, {**metadata, **quantity})
+                moves.append((var_tmp, Path(out.variance_path)))
+            if out.png_path:
+                png_tmp = stack.enter_context(temporary_file(out.png_path))
+                write_png(png_tmp, out.rgb, display, attributes={"pavonine:render_id": render_id})
+                moves.append((png_tmp, Path(out.png_path)))
+        try:
+            commit_files(moves)
+        except OSError as exc:
+            raise InputError(str(out.exr_path), f"cannot write: {exc.strerror or exc}") from None
+
+
+def _paths(out: RenderFiles) -> list[str | os.PathLike]:
+    return [p for p in (out.exr_path, out.png_path, out.variance_path) if p]
 
 
 def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
@@ -224,14 +275,55 @@ def _check_rgb(rgb: np.ndarray) -> np.ndarray:
 
 
 def _write(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
+    write_image_file(path, pixels, spec)
+
+
+def write_image_file(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
+    """Write ``pixels`` (H×W×C) with OpenImageIO ``spec`` to ``path`` atomically.
+
+    OpenImageIO reports some failures only when the file is closed (OpenEXR writes its chunks
+    then), so ``close()`` is checked too: a full disk or a file-size limit never commits a
+    truncated image. Its errors name ``path`` and, where OpenImageIO does not, the cause
+    (:func:`pavonine.pipeline.errors.diagnose_write_failure`).
+    """
     import OpenImageIO as oiio
 
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(os.fspath(tmp))
         if out is None:
             raise InputError(os.fspath(path), f"cannot write this image format: {oiio.geterror()}")
-        try:
-            if not out.open(os.fspath(tmp), spec) or not out.write_image(pixels):
-                raise InputError(os.fspath(path), f"cannot write image: {out.geterror()}")
-        finally:
-            out.close()
+        written = out.open(os.fspath(tmp), spec) and out.write_image(pixels)
+        error = out.geterror()
+        closed = out.close()
+        if not (written and closed):
+            message = error or out.geterror() or "the image library gave no reason"
+            reason = diagnose_write_failure(tmp) or scrub_temporaries(message, path)
+            raise InputError(os.fspath(path), f"cannot write image: {reason}")
+        reason = _silently_truncated(tmp)
+        if reason is not None:
+            raise InputError(os.fspath(path), f"cannot write image: {reason}")
+
+
+def _silently_truncated(path: Path) -> str | None:
+    """Why a file OpenImageIO reported as written is incomplete, or ``None``.
+
+    OpenEXR does not report a short write, so a file that reached the file-size limit, or an
+    EXR written on a disk that is now full and does not read back, is refused before it is
+    committed. Costs a ``stat`` (and, on a nearly full disk only, a read).
+    """
+    import resource
+
+    import OpenImageIO as oiio
+
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if limit != resource.RLIM_INFINITY and path.stat().st_size >= limit:
+        return os.strerror(errno.EFBIG)
+    stats = os.statvfs(path.parent)
+    if path.suffix.lower() != ".exr" or stats.f_bavail * stats.f_frsize >= 1 << 20:
+        return None  # libpng reports short writes itself
+    image = oiio.ImageInput.open(os.fspath(path))
+    readable = image is not None and image.read_image(oiio.FLOAT) is not None
+    if image is not None:
+        readable = readable and not image.has_error
+        image.close()
+    return None if readable else os.strerror(errno.ENOSPC)

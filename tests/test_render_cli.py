@@ -204,7 +204,7 @@ def test_exr_and_png_are_written_together_or_not_at_all(tmp_path, monkeypatch):
     imageio.write_render(tmp_path / "ok.exr", rgb, {"spp": 1}, png_path=tmp_path / "ok.png")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.exr", "ok.png"]
 
-    def broken_png(path, rgb, display=None):
+    def broken_png(path, rgb, display=None, **attributes):
         raise OSError(28, "No space left on device", str(path))
 
     monkeypatch.setattr(imageio, "write_png", broken_png)

@@ -6,11 +6,18 @@ back into :class:`~pavonine.pipeline.convert.mesh.MeshData`, its maps through US
 resolver, and :class:`~pavonine.pipeline.shading.looks.Looks` bakes the textures, writes the
 MaterialX document and re-authors the materials in the layer that defines the feather material
 (each file written atomically; the layer saved by rename).
+
+An asset in a folder of its own (``NAME/NAME.usd``, as ``pavonine convert`` writes it) is baked
+as one commit: the folder is copied to a hidden staging folder beside it, baked there, and
+exchanged with the original in one atomic step (:mod:`pavonine.pipeline.commit`), so a crash
+or a full disk leaves the old asset whole. Any other root layer is baked in place, file by file.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +26,7 @@ import numpy as np
 
 from pavonine.pipeline.convert.asset import BARB_TANGENT, FEATHER_UV
 from pavonine.pipeline.convert.mesh import MeshData
-from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.errors import TEMPORARY_MARK, InputError
 
 PORTABLE_SUFFIX = "Portable"  # Feather → FeatherPortable, as pavonine convert names it
 
@@ -187,7 +194,32 @@ def _umask() -> int:
 
 
 def bake_asset(asset: str | os.PathLike, resolution: int, report=None) -> BakeReport:
-    """Re-bake every feather material of ``asset`` (see the module docstring)."""
+    """Re-bake every feather material of ``asset`` (see the module docstring): an asset folder
+    of its own in one atomic commit, any other root layer in place."""
+    from pavonine.pipeline.commit import staged_folder
+
+    root = root_layer_path(asset)
+    folder = root.parent
+    if root.name != f"{folder.name}.usd":
+        return _bake_in_place(root, resolution, report)
+    with staged_folder(folder, replace=True, subject=folder.name) as staging:
+        shutil.copytree(
+            folder, staging, symlinks=True, dirs_exist_ok=True,
+            ignore=lambda _, names: [n for n in names if TEMPORARY_MARK in n],
+        )  # fmt: skip
+        result = _bake_in_place(staging / root.name, resolution, report)
+    from pxr import Sdf
+
+    replaced = Path(os.path.realpath(folder))
+    for layer in Sdf.Layer.GetLoadedLayers():  # this process's cache of the files just replaced
+        if layer.realPath and Path(os.path.realpath(layer.realPath)).is_relative_to(replaced):
+            layer.Reload(force=True)
+    relocated = json.loads(json.dumps(result.as_dict()).replace(str(staging), str(folder)))
+    return BakeReport(str(root), resolution, relocated["materials"])
+
+
+def _bake_in_place(root: Path, resolution: int, report=None) -> BakeReport:
+    """Re-bake every feather material of the stage at ``root``, editing its files in place."""
     from pxr import Usd, UsdShade
 
     from pavonine.asset_io import local_file
@@ -197,7 +229,6 @@ def bake_asset(asset: str | os.PathLike, resolution: int, report=None) -> BakeRe
     from pavonine.pipeline.shading.usd import bind
     from pavonine.schemas import authoring
 
-    root = root_layer_path(asset)
     stage, default = _open(root)
     materials = [
         UsdShade.Material(p)

@@ -25,8 +25,8 @@ from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.bake.appearance import texel_appearance
 from pavonine.pipeline.bake.texels import dilate, nearest_covered, scatter, surface_texels
 from pavonine.pipeline.convert.mesh import MeshData
-from pavonine.pipeline.errors import atomic_path
 from pavonine.pipeline.maps.io import write_map
+from pavonine.render.imageio import write_image_file
 
 TEXTURE_FOLDER = "textures"
 #: Texture key → file name inside ``textures/``.
@@ -112,15 +112,7 @@ def write_base_color(path: Path, rgba: np.ndarray) -> None:
     spec.attribute("oiio:ColorSpace", "sRGB")
     spec.attribute("oiio:UnassociatedAlpha", 1)
     spec.attribute("Software", "pavonine")
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(str(tmp))
-        if out is None or not out.open(str(tmp), spec):
-            raise OSError(f"{path}: cannot open for writing: {oiio.geterror()}")
-        try:
-            if not out.write_image(np.ascontiguousarray(pixels)):
-                raise OSError(f"{path}: write failed: {out.geterror()}")
-        finally:
-            out.close()
+    write_image_file(path, np.ascontiguousarray(pixels), spec)
 
 
 def write_textures(folder: Path, textures: BakedTextures) -> dict[str, str]:

@@ -19,7 +19,7 @@ from pavonine.pipeline.cli.options import (
     warnings_to_log,
 )
 from pavonine.pipeline.cli.values import SEED
-from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
 from pavonine.shipped import assets_dir
 
 FEATHER = "eye_feather"
@@ -92,7 +92,8 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
     references = copy.GetPrimAtPath("/World/Feather").referenceList
     references.ClearEdits()
     references.Prepend(Sdf.Reference(f"./{asset_root.relative_to(target.parent).as_posix()}"))
-    copy.Export(str(target))
+    with atomic_path(target) as tmp:  # beside the target: the relative reference holds
+        copy.Export(str(tmp))
 
 
 @click.command()

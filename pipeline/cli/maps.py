@@ -79,21 +79,35 @@ def maps(
     feather), yellow (a yellow covert) or fishtail (a T-shaped feather from the train's edge).
     Encodings: docs/pipeline.md.
     """
-    from pavonine.pipeline.maps.paint import KINDS, generate_maps, write_contact_sheet, write_maps
+    from pavonine.pipeline.commit import staged_files
+    from pavonine.pipeline.maps.paint import (
+        KINDS,
+        MAP_NAMES,
+        generate_maps,
+        write_contact_sheet,
+        write_maps,
+    )
 
     outdir = output or Path("out/maps") / kind
     if outdir.exists() and not outdir.is_dir():
         raise InputError(str(outdir), "exists and is not a directory")
-    sheet = outdir / "contact_sheet.png" if contact_sheet else None
+    ext = f".{fmt}"
     with progress_bar() as progress:
         task = progress.add_task(f"painting {kind} maps", total=3 if contact_sheet else 2)
         images = generate_maps(kind, size, seed)
         progress.advance(task)
-        paths = write_maps(images, outdir, f".{fmt}")
-        progress.advance(task)
-        if sheet is not None:
-            write_contact_sheet(images, sheet, f"{kind}: {KINDS[kind].description}")
+        # Every file is written into a staging folder inside OUTDIR first, then renamed into
+        # place as one group: a full disk leaves no file, a crash no half-replaced map.
+        with staged_files(outdir, subject=kind) as staging:
+            write_maps(images, staging, ext)
             progress.advance(task)
+            if contact_sheet:
+                write_contact_sheet(
+                    images, staging / "contact_sheet.png", f"{kind}: {KINDS[kind].description}"
+                )
+                progress.advance(task)
+    paths = {name: outdir / f"{name}{ext}" for name in MAP_NAMES}
+    sheet = outdir / "contact_sheet.png" if contact_sheet else None
     height, width = images["alpha"].shape
     for name, path in paths.items():
         say(f"{name:<13} {path}")

@@ -19,7 +19,7 @@ from pavonine.pipeline.cli.options import (
     say,
 )
 from pavonine.pipeline.cli.values import FiniteFloat
-from pavonine.pipeline.errors import InputError, atomic_path, one_line_errors
+from pavonine.pipeline.errors import InputError, one_line_errors
 
 DEFAULT_OUTPUT = Path("out/spectra")
 
@@ -242,19 +242,22 @@ def spectra(
 def _write_files(output: Path, params, label, incidence, observe_deg, kwargs):
     """The PNG (Fig. 5 layout) and CSV, renamed into place together; their summaries and paths."""
     from pavonine.materials import optics, plots
+    from pavonine.pipeline.commit import commit_files, recover, temporary_file
 
     curves = optics.reflectance_spectra(params, incidence, observe_deg, **kwargs)
     png = output / f"spectra_{label}.png"
     csv_path = output / f"spectra_{label}.csv"
-    with ExitStack() as outputs:  # all renamed into place together, or none
-        tmp_png = outputs.enter_context(atomic_path(png))
-        tmp_csv = outputs.enter_context(atomic_path(csv_path))
+    with ExitStack() as outputs:  # both complete, then renamed as one journalled group
+        tmp_png = outputs.enter_context(temporary_file(png))
+        tmp_csv = outputs.enter_context(temporary_file(csv_path))
         summaries = plots.figure5(tmp_png, params, label, incidence, observe_deg, **kwargs)
         with open(tmp_csv, "w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(["wavelength_nm", *[f"observe_{o:g}deg" for o in observe_deg]])
             for i, lam in enumerate(optics.PLOT_WAVELENGTHS_NM):
                 writer.writerow([f"{lam:g}", *[f"{c[i]:.6g}" for c in curves]])
+        recover(output)
+        commit_files([(tmp_csv, csv_path), (tmp_png, png)])
     return summaries, {"png": str(png), "csv": str(csv_path)}
 
 

@@ -11,8 +11,6 @@ import hashlib
 import json
 import os
 import platform
-import shutil
-import tempfile
 from dataclasses import dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
@@ -20,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from pavonine.pipeline.commit import staged_folder
 from pavonine.pipeline.compare.methods import (
     CompareOptions,
     ComparisonResult,
@@ -280,9 +279,7 @@ def update_baseline(
     if not np.all(np.isfinite(render.rgb)):
         raise InputError(str(stage), "render has NaN or infinite pixels; refusing to store it")
     calibration = calibrate(stage, render, check, progress=progress)
-    root = Path(baselines_dir)
-    root.mkdir(parents=True, exist_ok=True)
-    target = root / name
+    target = Path(baselines_dir) / name
     info = {
         "format": FORMAT_VERSION,
         "scene": name,
@@ -298,11 +295,12 @@ def update_baseline(
         "versions": package_versions(),
         "renderer": _jsonable({k: v for k, v in render.metadata.items() if k != "stage"}),
     }
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=root))
-    try:
-        from pavonine.materials.display import REFERENCE_DISPLAY
-        from pavonine.render.imageio import write_exr, write_png
+    from pavonine.materials.display import REFERENCE_DISPLAY
+    from pavonine.render.imageio import write_exr, write_png
 
+    # Built inside the baselines folder, then exchanged with the old baseline in one atomic
+    # step (pavonine.pipeline.commit): a reader sees the old baseline or the new one, whole.
+    with staged_folder(target, replace=True, subject=name) as staging:
         write_exr(staging / MEAN_FILE, render.rgb, {"scene": name, **settings.to_json()})
         write_exr(
             staging / VARIANCE_FILE,
@@ -314,16 +312,6 @@ def update_baseline(
         for written in staging.iterdir():
             written.chmod(0o644)
         staging.chmod(0o755)
-        old = None
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{name}.old.", dir=root))
-            os.replace(target, old / name)
-        os.replace(staging, target)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
     return load_baseline(target)
 
 

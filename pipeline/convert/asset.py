@@ -19,16 +19,14 @@ Layout of ``OUTDIR/NAME/`` (every path inside is ``./``-relative, so the folder 
                              float sources), RGB sources reduced to Rec. 709 luma
     textures/*.png           the baked textures (pavonine.pipeline.bake.textures)
 
-The whole folder is first written beside its destination under a hidden temporary name and
-renamed into place only when complete (:func:`staging_folder`, :func:`commit_asset`).
+The whole folder is first written inside OUTDIR under a hidden temporary name and committed
+only when complete (:func:`staging_folder`, :func:`commit_asset`): renamed into place, or
+exchanged with the old asset in one atomic step (:mod:`pavonine.pipeline.commit`).
 """
 
 from __future__ import annotations
 
-import errno
 import os
-import shutil
-import tempfile
 from collections.abc import Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -37,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.materials.parameters import FeatherParameters
+from pavonine.pipeline.commit import commit_folder, staged_folder
 from pavonine.pipeline.convert.mesh import MeshData
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.maps.io import DataMap, write_map
@@ -291,58 +290,39 @@ def check_outdir(outdir: Path) -> None:
 
 
 @contextmanager
-def staging_folder(outdir: Path, name: str, force: bool):
-    """Yield a hidden temporary folder for ``outdir/name``; on success it is renamed into place
-    (replacing an existing asset only with ``force``); on failure it is removed.
+def staging_folder(outdir: Path, name: str, force: bool, subject: str | None = None):
+    """Yield a hidden temporary folder inside ``outdir`` for ``outdir/name``; on success it is
+    committed (replacing an existing asset only with ``force``; :func:`commit_asset`); on
+    failure it is removed.
 
-    The folder sits in ``outdir``, or while that does not exist in its nearest existing
-    ancestor (the same file system, so the final rename is atomic): ``outdir`` is created only
-    when the asset is committed, and a failed conversion leaves nothing behind.
+    ``outdir`` is created first, so nothing is written outside it, and removed again if the
+    conversion fails and it is still empty: a failed conversion leaves nothing behind. Write
+    errors (a full disk, a file-size limit, USD failing to save a layer) are one-line
+    :class:`InputError` naming ``outdir/name``. See :mod:`pavonine.pipeline.commit`.
     """
     target = outdir / name
     if target.exists() and not force:
         raise InputError(str(target), "asset exists; pass --force to replace it")
     check_outdir(outdir)
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}.tmp-", dir=_existing_ancestor(outdir)))
-    umask = os.umask(0)
-    os.umask(umask)
-    staging.chmod(0o777 & ~umask)  # mkdtemp makes 0700; an asset folder is shared
     try:
-        yield staging
-        outdir.mkdir(parents=True, exist_ok=True)
-        commit_asset(staging, target, force)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
+        with staged_folder(target, replace=force, subject=subject or name) as staging:
+            yield staging
+    except FileExistsError:
+        raise InputError(str(target), "asset exists; pass --force to replace it") from None
 
 
 def commit_asset(staging: Path, target: Path, force: bool = False) -> None:
-    """Move a finished asset folder into place; an existing asset is replaced only with ``force``.
+    """Move a finished asset folder into place; an existing asset is replaced only with ``force``
+    (in one atomic step: :func:`pavonine.pipeline.commit.commit_folder`).
 
     Without ``force`` the single ``rename`` is the existence check: the kernel refuses to
     rename a folder onto a non-empty folder or a file, so of two writers racing for one name
     the second fails instead of replacing the first.
     """
-    if not force:
-        try:
-            os.rename(staging, target)
-        except OSError as exc:
-            if exc.errno in (errno.EEXIST, errno.ENOTEMPTY, errno.ENOTDIR, errno.EISDIR):
-                raise InputError(str(target), "asset exists; pass --force to replace it") from None
-            raise
-        return
-    if not target.exists():
-        os.replace(staging, target)
-        return
-    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
-    old.rmdir()
-    os.replace(target, old)
     try:
-        os.replace(staging, target)
-    except OSError:
-        os.replace(old, target)
-        raise
-    shutil.rmtree(old, ignore_errors=True)
+        commit_folder(staging, target, replace=force)
+    except FileExistsError:
+        raise InputError(str(target), "asset exists; pass --force to replace it") from None
 
 
 def write_asset(

@@ -12,11 +12,12 @@ failing recipe does not stop the others and the summary names each failure.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
+import signal
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,6 +25,7 @@ import numpy as np
 
 from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE
 from pavonine.materials.parameters import ParameterError
+from pavonine.pipeline.commit import recover
 from pavonine.pipeline.convert.asset import (
     LODS,
     check_outdir,
@@ -41,6 +43,7 @@ from pavonine.pipeline.convert.mesh import (
 )
 from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
 from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.faults import checkpoint
 from pavonine.pipeline.maps.io import DataMap, read_data_map
 from pavonine.pipeline.maps.paint import MAP_NAMES
 from pavonine.pipeline.shading.looks import Looks
@@ -190,6 +193,7 @@ def convert_recipe(
     timer = _Timer(result.seconds, report)
     recipe = parse_recipe(recipe_path)
     result.name = recipe.name
+    checkpoint("convert.recipe", recipe.name)
     outdir = Path(outdir)
     target = outdir / recipe.name
     if target.exists() and not force:
@@ -295,14 +299,64 @@ def convert_many(
             if on_done:
                 on_done(results[i])
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = {
-                pool.submit(_convert_safely, path, outdir, force): i
-                for i, path in enumerate(recipes)
-            }
-            for future in as_completed(futures):
-                i = futures[future]
-                results[i] = future.result()
-                if on_done:
-                    on_done(results[i])
+        for i, result in _convert_in_processes(recipes, outdir, force, jobs):
+            results[i] = result
+            if on_done:
+                on_done(result)
     return [results[i] for i in range(len(recipes))]
+
+
+def _worker(recipe_path: str, outdir: str, force: bool, sender) -> None:
+    """Worker process body: convert one recipe and send its result to the parent."""
+    sender.send(_convert_safely(recipe_path, outdir, force))
+    sender.close()
+
+
+def _convert_in_processes(recipes: Sequence[str], outdir: str, force: bool, jobs: int):
+    """Yield ``(index, result)`` as recipes finish, each in a process of its own, ``jobs`` at
+    a time. A worker that dies (killed, out of memory) fails its own recipe only: the others
+    go on, and what it staged is removed (:func:`pavonine.pipeline.commit.recover`)."""
+    from multiprocessing.connection import wait
+
+    context = multiprocessing.get_context()
+    pending = list(enumerate(recipes))
+    running: dict[object, tuple[int, multiprocessing.Process]] = {}
+    try:
+        while pending or running:
+            while pending and len(running) < jobs:
+                i, path = pending.pop(0)
+                receiver, sender = context.Pipe(duplex=False)
+                process = context.Process(
+                    target=_worker, args=(path, outdir, force, sender), daemon=True
+                )
+                process.start()
+                sender.close()
+                running[receiver] = (i, process)
+            for receiver in wait(list(running)):
+                i, process = running.pop(receiver)
+                try:
+                    result = receiver.recv()
+                except EOFError:  # died before sending its result
+                    process.join()
+                    result = ConvertResult(recipes[i], error=_death(process.exitcode))
+                    recover(outdir)
+                receiver.close()
+                process.join()
+                yield i, result
+    finally:
+        for _, process in running.values():
+            process.kill()
+            process.join()
+        if running:
+            recover(outdir)
+
+
+def _death(exitcode: int | None) -> str:
+    """Why a worker ended without a result, in words."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        return f"worker process was killed ({name}); nothing was written for this recipe"
+    return f"worker process exited with status {exitcode}; nothing was written for this recipe"

@@ -55,18 +55,10 @@ def write_map(path: str | os.PathLike, values: np.ndarray, *, description: str =
     spec.attribute("Software", "pavonine")
     if description:
         spec.attribute("ImageDescription", description)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-    out = oiio.ImageOutput.create(str(tmp))
-    if out is None or not out.open(str(tmp), spec):
-        raise OSError(f"{path}: cannot open for writing: {oiio.geterror()}")
-    try:
-        # A 2-D array is misread by the Python binding; pass (rows, columns, channels).
-        if not out.write_image(np.ascontiguousarray(pixels[..., None])):
-            raise OSError(f"{path}: write failed: {out.geterror()}")
-    finally:
-        out.close()
-    os.replace(tmp, path)
+    from pavonine.render.imageio import write_image_file
+
+    # A 2-D array is misread by the Python binding; pass (rows, columns, channels).
+    write_image_file(path, np.ascontiguousarray(pixels[..., None]), spec)
 
 
 @dataclass(frozen=True)
