@@ -7,6 +7,8 @@
 * Usage errors (unknown option, bad value, missing argument), bad input
   (:class:`~pavonine.pipeline.errors.InputError`) and a missing optional extra each print one line
   ``error: <where>: <message>`` on stderr and exit with status 2.
+* Ctrl-C (``KeyboardInterrupt``) prints ``error: <command>: interrupted`` and exits with 130
+  (128 + SIGINT, as shells do).
 """
 
 from __future__ import annotations
@@ -25,6 +27,17 @@ from pavonine.pipeline.cli.options import (
     verbosity_options,
 )
 from pavonine.pipeline.errors import EXIT_BAD_INPUT, InputError
+
+#: Exit status after Ctrl-C: 128 + SIGINT, what a shell reports for a process killed by it.
+EXIT_INTERRUPTED = 130
+
+
+class Interrupted(Exception):
+    """Ctrl-C inside a command (carried past click, which would turn it into "Aborted!")."""
+
+    def __init__(self, command: str):
+        super().__init__(command)
+        self.command = command
 
 
 def _param_name(param: click.Parameter) -> str:
@@ -98,6 +111,9 @@ class PavonineGroup(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
+        except KeyboardInterrupt:
+            command = f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip()
+            raise Interrupted(command) from None
         except ModuleNotFoundError as exc:
             error = missing_extra(exc, f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip())
             if error is None:
@@ -124,6 +140,9 @@ class PavonineGroup(click.Group):
         except click.Abort:
             click.echo("aborted", err=True)
             sys.exit(1)
+        except Interrupted as exc:
+            click.echo(f"error: {exc.command}: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
         except (InputError, ParameterError) as exc:  # commands use @one_line_errors; the rest
             click.echo(f"error: {exc}", err=True)
             sys.exit(EXIT_BAD_INPUT)
