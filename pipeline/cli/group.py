@@ -137,7 +137,10 @@ class PavonineGroup(click.Group):
         except click.ClickException as exc:
             click.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
             sys.exit(exc.exit_code)
-        except click.Abort:
+        except click.Abort as exc:
+            if isinstance(exc.__cause__, KeyboardInterrupt):  # Ctrl-C before a command ran
+                click.echo(f"error: {prog_name or 'pavonine'}: interrupted", err=True)
+                sys.exit(EXIT_INTERRUPTED)
             click.echo("aborted", err=True)
             sys.exit(1)
         except Interrupted as exc:
