@@ -335,10 +335,10 @@ def test_validate_truncated_payload_usdc_reports_findings_not_a_traceback(tmp_pa
 # -- progress and Ctrl-C ---------------------------------------------------------------------------
 @pytest.mark.render
 def test_ctrl_c_during_a_render_exits_130_with_one_line_and_no_output(tmp_path):
-    stage = instancer(tmp_path, 100)  # ~20 s of Mitsuba tracing: time to interrupt it
-    out = tmp_path / "pi.exr"
+    stage = scene(tmp_path)  # 1.3 billion samples: minutes of passes, whatever Dr.Jit has cached
+    out = tmp_path / "long.exr"
     command = [sys.executable, "-m", "pavonine.pipeline.cli", "render", str(stage), "-o",
-               str(out), "--resolution", "16x12", "--spp", "1", "-q"]  # fmt: skip
+               str(out), "--resolution", "320x240", "--spp", "16384", "-q"]  # fmt: skip
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
     time.sleep(6)
     child.send_signal(signal.SIGINT)
