@@ -30,6 +30,7 @@ from pavonine.render import instance_primvars, lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.render.passes import render_passes
 from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
 
@@ -77,7 +78,7 @@ def render_stage(
     """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
 
     ``options`` are :func:`render_products`' (``spp``, ``resolution``, ``seed``, ``camera``,
-    ``time``, ``variant``, ``moments``, ``progress``).
+    ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
     """
     chosen = [product] if product else None
     return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
@@ -96,18 +97,22 @@ def render_products(
     progress: bool = True,
     products: list[str] | None = None,
     first_only: bool = False,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> list[RenderResult]:
     """Render every product of the stage's render settings (or the ones at ``products``).
 
     ``resolution`` and ``camera`` override every product's; a stage without settings renders one
-    beauty image. Warnings are shared by all results.
+    beauty image. Warnings are shared by all results. ``limits`` (:mod:`.limits`) are checked
+    before the stage is translated: image sizes and ``spp`` first, instance counts as instancers
+    are met. An image with NaN or infinite pixels is an :class:`InputError`, never a result.
     """
-    if spp < 1:
-        raise InputError("spp", f"must be at least 1, got {spp}")
+    limits.check_spp(spp, "spp")
     if moments and spp < 2:
         raise InputError("spp", "moments need at least 2 samples per pixel")
-    if resolution is not None and (len(resolution) != 2 or min(resolution) < 1):
-        raise InputError("resolution", f"must be two positive integers, got {resolution}")
+    if resolution is not None:
+        if len(resolution) != 2:
+            raise InputError("resolution", f"must be two positive integers, got {resolution}")
+        limits.check_resolution(resolution, "resolution")
     backend = _select(variant)
     import drjit as dr
     import mitsuba as mi
@@ -116,10 +121,12 @@ def render_products(
     diag = Diagnostics()
     stage = open_stage(stage_path, diag)
     time_code = render_time(stage, time)
-    delegate = StageDelegate(stage, time_code, diag)
-    synced = delegate.sync()
     settings = read_render_settings(stage, diag)
     chosen = choose_products(settings.products, products, first_only)
+    for product in chosen:
+        check_product_size(product, resolution, settings.path, limits)
+    delegate = StageDelegate(stage, time_code, diag, limits=limits, progress=progress)
+    synced = delegate.sync()
     if synced.bounds is None:
         diag.warn(str(stage_path), "the stage has no renderable geometry")
     jobs = [
@@ -127,7 +134,7 @@ def render_products(
         for p in chosen
     ]
     emitters = dict(synced.emitters)
-    if not emitters and not synced.mesh_lights:
+    if not emitters and not synced.mesh_lights and not synced.dark_lights:
         up = np.eye(3)[2 if synced.up_axis == "Z" else 1]
         center, radius = delegate.bounding_sphere()
         emitters = lights.default_lights(jobs[0].sensor.to_world, up, center, radius)
@@ -191,6 +198,8 @@ def render_products(
                 )
             )
     dr.sync_thread()
+    for result in results:
+        check_finite_image(result, stage_path)
     seconds = round(_time.perf_counter() - started, 3)
     for result in results:
         result.metadata["seconds"] = seconds
@@ -220,6 +229,40 @@ def choose_products(
         if found not in chosen:
             chosen.append(found)
     return chosen
+
+
+def check_product_size(
+    product: ProductSpec,
+    resolution: tuple[int, int] | None,
+    settings_path: str | None,
+    limits: RenderLimits,
+) -> None:
+    """Refuse a product whose image (or square-pixel film) is beyond ``limits.pixels``."""
+    where = "resolution" if resolution else f"{product.path or settings_path}.resolution"
+    width, height = resolution or product.resolution or DEFAULT_RESOLUTION
+    limits.check_resolution((width, height), where)
+    film_width = max(1, round(width * product.pixel_aspect))
+    if film_width != width:
+        limits.check_resolution(
+            (film_width, height), f"{product.path or settings_path}.pixelAspectRatio"
+        )
+
+
+def check_finite_image(result: RenderResult, stage_path: str | os.PathLike) -> None:
+    """An :class:`InputError` if any pixel of any layer is NaN or infinite.
+
+    Non-finite input is caught where it is read (warnings naming prim and attribute); this is the
+    last guard, so that a NaN image is never written and reported as a success.
+    """
+    images = {"beauty": result.rgb, **result.images}
+    for name, pixels in images.items():
+        bad = int(np.count_nonzero(~np.isfinite(pixels)))
+        if bad:
+            raise InputError(
+                os.fspath(stage_path),
+                f"the render's {name} has {bad} NaN or infinite values (non-finite input the "
+                "renderer did not catch); nothing written",
+            )
 
 
 def _job(

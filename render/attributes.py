@@ -15,6 +15,7 @@ import numpy as np
 from pxr import Sdf, Usd, Vt
 
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.limits import MAX_COORDINATE
 
 VEC3_ARRAYS = (Vt.Vec3fArray, Vt.Vec3dArray, Vt.Vec3hArray)
 INT_ARRAYS = (Vt.IntArray, Vt.Int64Array, Vt.UIntArray, Vt.UInt64Array)
@@ -101,7 +102,8 @@ def real(
 ) -> float | None:
     """A real scalar attribute (the schema fallback when unauthored).
 
-    Wrong type → warning, ``fallback``. Non-finite, below ``minimum`` or (``positive``) not > 0 →
+    Wrong type → warning, ``fallback``. Non-finite, beyond
+    :data:`~pavonine.render.limits.MAX_COORDINATE`, below ``minimum`` or (``positive``) not > 0 →
     warning, ``None`` (the caller skips the prim: there is nothing sensible to draw).
     """
     attr = prim.GetAttribute(name)
@@ -118,6 +120,9 @@ def real(
         return fallback
     if not math.isfinite(value):
         diag.warn(where, f"{name} is {value}; skipped")
+        return None
+    if abs(value) > MAX_COORDINATE:
+        diag.warn(where, f"{name} = {value:g} is beyond ±{MAX_COORDINATE:g}; skipped")
         return None
     if positive and value <= 0.0:
         diag.warn(where, f"{name} = {value:g} must be positive; skipped")

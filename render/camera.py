@@ -46,6 +46,7 @@ def translate_camera(
 ) -> Sensor:
     """A USD camera as a Mitsuba ``perspective``/``thinlens``/``orthographic`` sensor."""
     where = str(prim.GetPath())
+    check_camera(prim, world_usd, time)
     camera = UsdGeom.Camera(prim).GetCamera(time)
     width, height = resolution
     image_aspect = width * pixel_aspect / height
@@ -82,6 +83,50 @@ def translate_camera(
             if abs(sensor.pop(key)) > 1e-9:
                 diag.warn(where, "aperture offsets are ignored with depth of field (thinlens)")
     return Sensor(sensor, to_world, where)
+
+
+#: Camera attributes that must be finite numbers (the image is made through them: an unusable
+#: value is an error, not a warning, since no fallback would be the camera the stage names).
+LENS_NUMBERS = (
+    "focalLength",
+    "horizontalAperture",
+    "verticalAperture",
+    "horizontalApertureOffset",
+    "verticalApertureOffset",
+    "clippingRange",
+    "fStop",
+    "focusDistance",
+)
+
+
+def check_camera(prim: Usd.Prim, world_usd: np.ndarray, time: Usd.TimeCode) -> None:
+    """``ValueError`` naming the attribute when a camera value or its transform is NaN, infinite
+    or (transform) beyond :data:`~pavonine.render.limits.MAX_COORDINATE`."""
+    from pavonine.render.limits import MAX_COORDINATE
+    from pavonine.render.xform import transform_source, usable_transform
+
+    where = str(prim.GetPath())
+    for name in LENS_NUMBERS:
+        attr = prim.GetAttribute(name)
+        value = attr.Get(time) if attr else None
+        if value is None:
+            continue
+        try:
+            array = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            continue
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"{where}: {name} = {value} is not a finite number")
+    clipping = UsdGeom.Camera(prim).GetClippingRangeAttr().Get(time)
+    if clipping is not None and not clipping[1] > max(clipping[0], 1e-6):
+        raise ValueError(
+            f"{where}: clippingRange = {tuple(clipping)}: far must be beyond near (and near > 0)"
+        )
+    if not usable_transform(world_usd, MAX_COORDINATE):
+        source = transform_source(prim, time, MAX_COORDINATE)
+        raise ValueError(
+            f"{where}: transform is NaN, infinite or beyond ±{MAX_COORDINATE:g} (from {source})"
+        )
 
 
 def framing_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> Sensor:

@@ -30,6 +30,7 @@ from pxr import Usd, UsdGeom
 
 from pavonine.render import attributes
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.limits import MAX_COORDINATE, coordinates_ok
 from pavonine.render.xform import transform_points
 
 BEZIER_TO_BSPLINE = np.array([[6, -7, 2, 0], [0, 2, -1, 0], [0, -1, 2, 0], [0, 2, -7, 6]], float)
@@ -52,8 +53,8 @@ def curve_control_points(
             where, f"curveVertexCounts sum to {counts.sum()} for {len(points)} points; skipped"
         )
         return None
-    if not np.all(np.isfinite(points)):
-        diag.warn(where, "points are NaN or infinite; skipped")
+    if not coordinates_ok(points):
+        diag.warn(where, f"points are NaN, infinite or beyond ±{MAX_COORDINATE:g}; skipped")
         return None
     kind = attributes.token(prim, "type", time, diag, ("cubic", "linear"))
     basis = attributes.token(prim, "basis", time, diag, ("bezier", "bspline", "catmullRom"))

@@ -27,7 +27,14 @@ from pavonine.render import (
     subdivision,
 )
 from pavonine.render.diagnostics import Diagnostics, first_line
-from pavonine.render.xform import TransformCache
+from pavonine.render.limits import (
+    DEFAULT_LIMITS,
+    MAX_COORDINATE,
+    RenderLimits,
+    coordinates_ok,
+)
+from pavonine.render.progress import SyncProgress
+from pavonine.render.xform import TransformCache, transform_source, usable_transform
 
 # prims that carry no geometry of their own (their children are still visited)
 STRUCTURAL = {
@@ -61,6 +68,7 @@ class SyncedScene:
     instance_count: int = 0
     feather_materials: int = 0
     mesh_lights: int = 0  # emitting meshes (MeshLightAPI, emissive materials): area emitters
+    dark_lights: int = 0  # lights authored to emit nothing (skipped, but the stage is lit by them)
 
 
 def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
@@ -91,12 +99,23 @@ def render_time(stage: Usd.Stage, time: float | None) -> Usd.TimeCode:
 class StageDelegate:
     """Translate one stage at one time code."""
 
-    def __init__(self, stage: Usd.Stage, time: Usd.TimeCode, diag: Diagnostics):
+    def __init__(
+        self,
+        stage: Usd.Stage,
+        time: Usd.TimeCode,
+        diag: Diagnostics,
+        *,
+        limits: RenderLimits = DEFAULT_LIMITS,
+        progress: bool = False,
+    ):
         self.stage = stage
         self.time = time
         self.diag = diag
         self.xforms = TransformCache(time)
-        self.table = instancing.InstanceTable()
+        self.progress = SyncProgress(stage.GetRootLayer().realPath or "stage", progress)
+        self.table = instancing.InstanceTable(
+            limit=limits.instances, on_progress=self.progress.instanced
+        )
         self._materials: dict[str, materials.MaterialSpec] = {}
         self._bsdfs: dict[tuple, object] = {}
         self.feather_bsdfs: list = []  # the pavonine_feather objects (per-instance primvars)
@@ -105,17 +124,26 @@ class StageDelegate:
         self.skinning = skel.Skinning()
 
     def sync(self) -> SyncedScene:
-        """Walk the stage and translate every renderable prim."""
+        """Walk the stage and translate every renderable prim (progress on stderr if asked)."""
+        with self.progress:
+            return self._sync()
+
+    def _sync(self) -> SyncedScene:
         light_prims: list[Usd.Prim] = []
         self.skinning = skel.skin_stage(self.stage, self.time, self.xforms, self.diag)
         it = iter(Usd.PrimRange(self.stage.GetPseudoRoot()))
         for prim in it:
             if prim.IsPseudoRoot():
                 continue
+            self.progress.prim()
             if not self._visible(prim):
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
+            geometric = prim.IsInstance() or kind in ("Mesh", "BasisCurves", "PointInstancer")
+            if (geometric or shapes.is_implicit(prim)) and self._world(prim) is None:
+                it.PruneChildren()
+                continue
             if prim.IsInstance():
                 instancing.native_instance(
                     prim, self.xforms.world(prim), self.table, self._subtree, self.time
@@ -162,11 +190,15 @@ class StageDelegate:
             )
         center, radius = self.bounding_sphere()
         for prim in light_prims:
+            if self._world(prim) is None:
+                continue
             entry = lights.translate_light(
                 prim, self.xforms.world(prim), self.time, self.diag, center, radius
             )
             if entry is not None:
                 self.scene.emitters[str(prim.GetPath())] = entry
+            elif lights.is_dark(prim, self.time):
+                self.scene.dark_lights += 1
         self.scene.feather_materials = sum(m.is_feather for m in self._materials.values())
         return self.scene
 
@@ -178,6 +210,21 @@ class StageDelegate:
         return (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-3)
 
     # -- translators ---------------------------------------------------------------------------
+
+    def _world(self, prim: Usd.Prim) -> np.ndarray | None:
+        """The prim's world transform; ``None`` (with a warning naming the xformOp) when it is NaN,
+        infinite or beyond :data:`~pavonine.render.limits.MAX_COORDINATE`: the prim is skipped."""
+        return self._usable(prim, self.xforms.world(prim))
+
+    def _usable(self, prim: Usd.Prim, matrix: np.ndarray) -> np.ndarray | None:
+        if usable_transform(matrix, MAX_COORDINATE):
+            return matrix
+        source = transform_source(prim, self.time, MAX_COORDINATE)
+        self.diag.warn(
+            str(prim.GetPath()),
+            f"transform is NaN, infinite or beyond ±{MAX_COORDINATE:g} (from {source}); skipped",
+        )
+        return None
 
     def _visible(self, prim: Usd.Prim) -> bool:
         imageable = UsdGeom.Imageable(prim)
@@ -222,6 +269,13 @@ class StageDelegate:
                 f"{prim.GetPath()}#{index}",
                 primvars=spec.primvars,
             )
+            if not coordinates_ok(triangles.positions):
+                self.diag.warn(
+                    str(prim.GetPath()),
+                    f"points through the transform are NaN, infinite or beyond "
+                    f"±{MAX_COORDINATE:g} (points × xformOps); skipped",
+                )
+                continue
             binding = spec.binding(prim, self.time, triangles.attributes)
             bsdf = self._bsdf(spec, surface.double_sided, binding)
             built.append((triangles, bsdf, spec, binding))
@@ -242,6 +296,9 @@ class StageDelegate:
             meshes.append(mesh.to_mitsuba_mesh(triangles, bsdf, self._load(emitter)))
         self.scene.mesh_count += len(built)
         return meshes, [t.bounds() for t, *_ in built]
+
+    def _gprim_in_prototype(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
+        return self._gprim(prim, matrix_usd, world=False)
 
     def _emission(self, spec, binding, prim: Usd.Prim, double_sided: bool, world: bool):
         """An emissive material's ``area`` emitter for one mesh (see ``shading.spec``)."""
@@ -314,18 +371,15 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
-            if kind == "Mesh" or shapes.is_implicit(prim):
-                matrix = (
-                    np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
+            if kind == "Mesh" or shapes.is_implicit(prim) or kind == "BasisCurves":
+                matrix = self._usable(
+                    prim,
+                    np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to),
                 )
-                prim_shapes, prim_boxes = self._gprim(prim, matrix, world=False)
-                meshes.extend(prim_shapes)
-                boxes.extend(prim_boxes)
-            elif kind == "BasisCurves":
-                matrix = (
-                    np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to)
-                )
-                prim_shapes, prim_boxes = self._curves(prim, matrix)
+                if matrix is None:
+                    continue
+                translate = self._curves if kind == "BasisCurves" else self._gprim_in_prototype
+                prim_shapes, prim_boxes = translate(prim, matrix)
                 meshes.extend(prim_shapes)
                 boxes.extend(prim_boxes)
             elif kind == "PointInstancer":

@@ -8,6 +8,10 @@
   instance prim at its world transform.
 
 Nested instancing is flattened into the outer prototype (Mitsuba shape groups do not nest).
+The table refuses to grow beyond the render ceiling on instances (:mod:`pavonine.render.limits`):
+a PointInstancer is counted *before* any of its prototypes is translated. An instance whose
+transform is NaN, infinite or beyond :data:`~pavonine.render.limits.MAX_COORDINATE` is skipped
+with a warning naming the instancer and the attributes that make the transform.
 Per-instance primvars the feather BSDF reads are recorded per instance id (``primvars``) and
 bound after the scene is built (:mod:`pavonine.render.instance_primvars`).
 """
@@ -22,7 +26,13 @@ from pxr import Usd, UsdGeom
 
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.instance_primvars import inherited_primvars, instancer_primvars
+from pavonine.render.limits import MAX_COORDINATE
 from pavonine.render.xform import to_mitsuba, transform_points
+
+#: The PointInstancer attributes an instance's transform is made of (named in warnings).
+TRANSFORM_ATTRIBUTES = "positions/orientations/scales"
+#: Report progress every this many instances.
+PROGRESS_EVERY = 256
 
 
 @dataclass
@@ -42,6 +52,17 @@ class InstanceTable:
     prototypes: dict[str, Prototype] = field(default_factory=dict)
     world_bounds: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     primvars: dict[str, dict[str, float]] = field(default_factory=dict)  # instance id → values
+    limit: int | None = None  # the render ceiling on instances (None: no ceiling)
+    on_progress: Callable[[int], None] | None = None  # called with the instance count
+
+    def reserve(self, count: int, where: str) -> None:
+        """Refuse (an :class:`InputError` from :mod:`.limits`) ``count`` more instances beyond
+        :attr:`limit`, before any work is done for them."""
+        from pavonine.render.limits import RenderLimits
+
+        RenderLimits(pixels=None, spp=None, instances=self.limit).check_instances(
+            len(self.instances) + count, where
+        )
 
     def add_prototype(self, key: str, shapes: list, bounds) -> Prototype:
         group_id = f"shapegroup_{len(self.groups)}"
@@ -68,6 +89,8 @@ class InstanceTable:
             "shapegroup": {"type": "ref", "id": proto.group_id},
             "to_world": mi.ScalarTransform4f(to_mitsuba(world_usd).tolist()),
         }
+        if self.on_progress is not None and len(self.instances) % PROGRESS_EVERY == 0:
+            self.on_progress(len(self.instances))
         if proto.bounds is not None:
             lo, hi = proto.bounds
             corners = np.array(
@@ -108,14 +131,20 @@ def point_instancer(
         )
         return
     mask = instancer.ComputeMaskAtTime(time)
+    visible = len(indices) if not mask else int(sum(bool(m) for m in mask))
+    table.reserve(visible, f"{where}.protoIndices")
+    world = np.array(matrices, dtype=np.float64).reshape(-1, 4, 4) @ world_usd
+    usable = np.all(np.isfinite(world) & (np.abs(world) <= MAX_COORDINATE), axis=(1, 2))
     per_instance = instancer_primvars(instancer, time, len(indices), diag)
     prototypes: dict[int, Prototype] = {}
     out_of_range = 0
-    for i, (proto_index, matrix) in enumerate(zip(indices, matrices, strict=True)):
+    for i, proto_index in enumerate(indices):
         if mask and not mask[i]:
             continue
         if not 0 <= proto_index < len(targets):
             out_of_range += 1
+            continue
+        if not usable[i]:
             continue
         if proto_index not in prototypes:
             root = prim.GetStage().GetPrimAtPath(targets[proto_index])
@@ -127,11 +156,15 @@ def point_instancer(
                 shapes, bounds = translate_subtree(root, root)
                 prototypes[proto_index] = table.add_prototype(key, shapes, bounds)
         values = {name: float(array[i]) for name, array in per_instance.items()}
-        table.add_instance(
-            prototypes[proto_index], np.array(matrix, dtype=np.float64) @ world_usd, values
-        )
+        table.add_instance(prototypes[proto_index], world[i], values)
     if out_of_range:
         diag.warn(where, f"{out_of_range} protoIndices out of range; those instances skipped")
+    if not usable.all():
+        diag.warn(
+            where,
+            f"{TRANSFORM_ATTRIBUTES}: {int((~usable).sum())} of {len(indices)} instance transforms "
+            f"are NaN, infinite or beyond ±{MAX_COORDINATE:g}; those instances skipped",
+        )
 
 
 def native_instance(
@@ -142,6 +175,7 @@ def native_instance(
     time: Usd.TimeCode | None = None,
 ) -> None:
     """Add an instanceable prim: its prototype once (from this instance's proxies), then the instance."""
+    table.reserve(1, str(prim.GetPath()))
     key = str(prim.GetPrototype().GetPath())
     proto = table.prototypes.get(key)
     if proto is None:

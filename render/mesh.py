@@ -11,8 +11,9 @@ is ``vertex``, ``varying`` or ``uniform`` the mesh keeps its shared vertices; ot
 unwelded.
 
 Bad data renders what it can: attributes of the wrong type are ignored with a warning naming the
-prim and the attribute (:mod:`pavonine.render.attributes`); faces that use non-finite points or
-out-of-range indices are dropped with one warning; an empty mesh is skipped with a warning.
+prim and the attribute (:mod:`pavonine.render.attributes`); faces that use non-finite points (or
+points beyond :data:`~pavonine.render.limits.MAX_COORDINATE`) or out-of-range indices are dropped
+with one warning; an empty mesh is skipped with a warning.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from pxr import Usd, UsdGeom, UsdShade
 
 from pavonine.render import attributes
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.limits import MAX_COORDINATE
 from pavonine.render.primvars import (
     COLOR_TWIN,
     PER_VERTEX,
@@ -142,7 +144,7 @@ def make_topology(
         )
 
     bad_index = (indices < 0) | (indices >= len(points))
-    finite = np.all(np.isfinite(points), axis=1)
+    finite = np.all(np.isfinite(points) & (np.abs(points) <= MAX_COORDINATE), axis=1)
     bad_point = np.zeros(len(indices), dtype=bool)
     bad_point[~bad_index] = ~finite[indices[~bad_index]]
     drop = np.any((bad_index | bad_point)[triangles], axis=1)
@@ -155,7 +157,8 @@ def make_topology(
     if not finite.all():
         diag.warn(
             where,
-            f"{int((~finite).sum())} of {len(points)} points are NaN or infinite; "
+            f"{int((~finite).sum())} of {len(points)} points are NaN, infinite or beyond "
+            f"±{MAX_COORDINATE:g}; "
             f"{len(np.unique(triangle_face[drop]))} faces using them dropped",
         )
     triangles, triangle_face = triangles[~drop], triangle_face[~drop]

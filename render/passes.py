@@ -4,12 +4,19 @@ Passes use seeds ``seed · 65537 + i`` and are averaged; the same seed gives the
 ``moments`` the image is rendered in at least min(spp, 16) passes and the per-pixel variance of the
 final estimate is ``s² / P``, ``s²`` the unbiased variance of the P pass means (in linear Rec.709,
 so exact for the RGB that is reported; Mitsuba's ``moment`` integrator would give XYZ moments).
+
+Ctrl-C: Mitsuba's integrator catches SIGINT itself, stops ("winding down") and raises a
+``KeyboardInterrupt`` that Dr.Jit wraps in a ``RuntimeError``; :func:`render_pass` unwraps it,
+so the caller sees a plain ``KeyboardInterrupt``; Mitsuba logs only errors while a pass renders,
+so its own warning about the signal is not printed (the command line reports the interrupt on
+one line, exit status 130).
 """
 
 from __future__ import annotations
 
+import contextlib
 import gc
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -66,11 +73,45 @@ def render_pass(mi, scene, sensor: int, integrator, spp: int, seed: int) -> np.n
     enabled = gc.isenabled()
     gc.disable()
     try:
-        image = mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed)
+        with _quiet_interrupt_log(mi):
+            image = mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed)
+    except Exception as exc:
+        if interrupted(exc):
+            raise KeyboardInterrupt from None
+        raise
     finally:
         if enabled:
             gc.enable()
     return np.asarray(image, dtype=np.float64)
+
+
+def interrupted(exc: BaseException) -> bool:
+    """``exc`` is, or was caused by, a ``KeyboardInterrupt`` (Dr.Jit wraps it in errors)."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
+
+
+@contextlib.contextmanager
+def _quiet_interrupt_log(mi) -> Iterator[None]:
+    """While a pass renders, Mitsuba logs errors only: its SIGINT handler's warning ("Received
+    interrupt signal, winding down..") is not printed (the command line's one-line interrupt
+    message is). Filtering by level is all a signal handler may safely do, so it is by level."""
+    logger = mi.logger()
+    if logger is None:
+        yield
+        return
+    level = logger.log_level()
+    logger.set_log_level(mi.LogLevel.Error)
+    try:
+        yield
+    finally:
+        logger.set_log_level(level)
 
 
 def samples_per_pass(spp: int, pixels: int, moments: bool) -> int:

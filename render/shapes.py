@@ -49,6 +49,9 @@ def implicit_surface(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> S
     if built is None:
         return None
     points, counts, indices, normals = built
+    if len(points) == 0:  # every ring collapsed onto the axis (a radius like 1e-38)
+        diag.warn(str(prim.GetPath()), "its sizes are too small to tessellate; skipped")
+        return None
     topology = make_topology(points, counts, indices, False, str(prim.GetPath()), diag)
     if topology is None:
         return None
@@ -241,8 +244,8 @@ def revolve(parts: list[list[tuple[float, float, float, float]]], axis: str) -> 
                 indices.extend(range(base, base + len(ring)))
                 base += len(ring)
     perm = AXIS_PERMUTATION[axis]  # world[:, k] = local[:, perm[k]]
-    p = np.asarray(points)[:, perm]
-    n = np.asarray(normals)[:, perm]
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)[:, perm]
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)[:, perm]
     return p, np.asarray(counts), np.asarray(indices), n
 
 

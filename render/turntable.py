@@ -21,22 +21,13 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdRender
 
 from pavonine.pipeline.errors import InputError
+from pavonine.render.camera import LENS_NUMBERS
 
 ROOT = "/Turntable"
 ELEVATION_DEG = 15.0
 FOCAL_LENGTH = 35.0  # tenths of a scene unit (mm in a centimetre stage), as UsdGeom.Camera
 APERTURE = (36.0, 24.0)
-_LENS_ATTRIBUTES = (
-    "focalLength",
-    "horizontalAperture",
-    "verticalAperture",
-    "horizontalApertureOffset",
-    "verticalApertureOffset",
-    "clippingRange",
-    "fStop",
-    "focusDistance",
-    "projection",
-)
+_LENS_ATTRIBUTES = (*LENS_NUMBERS, "projection")
 
 
 def camera_name(index: int) -> str:

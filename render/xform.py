@@ -61,3 +61,26 @@ def normalize(vectors: np.ndarray) -> np.ndarray:
     """Unit vectors; zero vectors stay zero."""
     length = np.linalg.norm(vectors, axis=-1, keepdims=True)
     return np.where(length > 0, vectors / np.where(length > 0, length, 1.0), 0.0)
+
+
+def usable_transform(matrix_usd: np.ndarray, bound: float) -> bool:
+    """The matrix is finite and its entries within ±``bound`` (see :mod:`pavonine.render.limits`)."""
+    return bool(np.all(np.isfinite(matrix_usd)) and np.all(np.abs(matrix_usd) <= bound))
+
+
+def transform_source(prim: Usd.Prim, time: Usd.TimeCode, bound: float) -> str:
+    """``/prim.xformOp:…`` of the nearest op (on ``prim`` or an ancestor) with a value that is NaN,
+    infinite or beyond ±``bound``: what to name when a world transform is unusable."""
+    while prim and not prim.IsPseudoRoot():
+        xformable = UsdGeom.Xformable(prim)
+        if xformable:
+            for op in xformable.GetOrderedXformOps():
+                value = op.Get(time)
+                try:
+                    array = np.asarray(value, dtype=np.float64)
+                except (TypeError, ValueError):
+                    continue
+                if not np.all(np.isfinite(array)) or np.any(np.abs(array) > bound):
+                    return f"{prim.GetPath()}.{op.GetOpName()}"
+        prim = prim.GetParent()
+    return "its xformOps"

@@ -15,7 +15,7 @@ import re
 import sys
 from dataclasses import asdict, dataclass
 
-from pxr import Usd, UsdValidation
+from pxr import Tf, Usd, UsdValidation
 
 from pavonine.schemas import validation
 from pavonine.schemas.validation import ERROR
@@ -122,7 +122,7 @@ def _adjust_usd_findings(stage: Usd.Stage, findings: list[Finding]) -> list[Find
 
 
 @contextlib.contextmanager
-def _quiet_stderr():
+def quiet_usd_stderr():
     """Silence USD's own diagnostic prints (TF_WARN) while validators run: what they say comes
     back as validation errors, reported in Pavonine's one-line form."""
     sys.stderr.flush()
@@ -140,13 +140,41 @@ def validate_stage(stage: Usd.Stage, file: str | None = None) -> list[Finding]:
     """Every finding of USD's validators and Pavonine's on ``stage``, sorted by prim path."""
     file = file or stage.GetRootLayer().identifier
     validation.prepare(stage)
-    context = UsdValidation.ValidationContext(all_validators())
-    with _quiet_stderr():
-        errors = context.Validate(stage)
-    findings = [_finding(e, file) for e in errors if not e.HasNoError()]
+    validators = all_validators()
+    failed: list[Finding] = []
+    with quiet_usd_stderr():
+        try:
+            errors = list(UsdValidation.ValidationContext(validators).Validate(stage))
+        except Tf.ErrorException:  # one validator choked (a truncated layer): run them one by one
+            errors, failed = _validate_one_by_one(stage, validators, file)
+    findings = [_finding(e, file) for e in errors if not e.HasNoError()] + failed
     findings = _adjust_usd_findings(stage, findings)
     unique = list(dict.fromkeys(findings))
     return sorted(unique, key=lambda f: (f.path, f.field, f.severity, f.message))
+
+
+def _validate_one_by_one(stage: Usd.Stage, validators: list, file: str) -> tuple[list, list]:
+    """USD's errors from every validator that runs, and one ERROR finding per validator that
+    raised (a layer USD cannot read, such as a truncated ``.usdc`` payload), naming the cause."""
+    errors: list = []
+    failed: list[Finding] = []
+    for validator in validators:
+        try:
+            errors.extend(UsdValidation.ValidationContext([validator]).Validate(stage))
+        except Tf.ErrorException as exc:
+            name = validator.GetMetadata().name
+            failed.append(
+                Finding("ERROR", "/", "ValidatorFailed", f"{name} could not run: "
+                        f"{tf_message(exc)}", name, file)
+            )  # fmt: skip
+    return errors, failed
+
+
+def tf_message(exc: Exception) -> str:
+    """The first message of a ``Tf.ErrorException`` on one line (without C++ source locations)."""
+    quoted = re.findall(r" : '(.*?)'\s*(?:\n|$)", str(exc), flags=re.S)
+    text = quoted[0] if quoted else str(exc)
+    return " ".join(text.split()) or type(exc).__name__
 
 
 __all__ = ["Finding", "validate_stage"]

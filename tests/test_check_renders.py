@@ -28,7 +28,9 @@ pytestmark = pytest.mark.mitsuba  # the CLI checks that Mitsuba loads first
 
 
 # ------------------------------------------------------------ stand-in renderer (fast, no Mitsuba)
-def fake_render(stage, settings: CheckSettings, *, progress: bool = False) -> SceneRender:
+def fake_render(
+    stage, settings: CheckSettings, *, progress: bool = False, limits=None
+) -> SceneRender:
     """A smooth image whose brightness is read from the 'stage' text, with Monte Carlo-like noise.
 
     The per-sample relative spread is 50 %, so the estimate's variance is ``(0.5·truth)²/spp``;

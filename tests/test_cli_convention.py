@@ -153,7 +153,7 @@ def _fake_store(tmp: Path, monkeypatch) -> list[str]:
     """A scene and a stand-in renderer (a noisy flat image), so baselines take milliseconds."""
     from pavonine.pipeline.compare import baselines
 
-    def render(stage, settings, *, progress=False):
+    def render(stage, settings, *, progress=False, limits=None):
         width, height = settings.resolution
         rng = np.random.default_rng(settings.seed)
         truth = np.full((height, width, 3), 0.5, np.float32)

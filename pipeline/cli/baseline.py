@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from pavonine.pipeline.cli.limits import limit_options
 from pavonine.pipeline.cli.options import (
     emit_json,
     json_option,
@@ -34,6 +35,7 @@ from pavonine.pipeline.compare.baselines import (
     update_baseline,
 )
 from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.render.limits import RenderLimits
 from pavonine.shipped import is_packaged
 
 LIST_SCHEMA = {
@@ -129,6 +131,7 @@ def baseline() -> None:
     help="Seed CI renders with (must differ from --seed).",
 )
 @store_options
+@limit_options
 @threads_option
 @json_option(UPDATE_SCHEMA)
 @requires("mitsuba", "drjit", "flip_evaluator")
@@ -144,6 +147,7 @@ def update(
     scenes_dir: Path,
     baselines_dir: Path,
     json_target: str | None,
+    limits: RenderLimits,
 ) -> None:
     """Re-render the baselines of SCENES (names like eye_feather_sun, or stage paths)."""
     from click.core import ParameterSource
@@ -165,6 +169,10 @@ def update(
     if seed == check_seed:
         raise InputError("--check-seed", "must differ from --seed (a check must not replay it)")
     size = None if resolution == "auto" else parse_resolution(resolution)
+    limits.check_spp(spp, "--spp")
+    limits.check_spp(check_spp, "--check-spp")
+    if size is not None:
+        limits.check_resolution(size, "--resolution")
     stages = [resolve_stage(s, scenes_dir) for s in scenes]
     if all_scenes:
         stages += [p for p in shipped_scenes(scenes_dir) if p not in stages]
@@ -189,6 +197,7 @@ def update(
                 settings=CheckSettings(size, spp, seed),
                 check=CheckSettings(size, check_spp, check_seed),
                 command=command,
+                limits=limits,
             )
             progress.advance(task)
             updated.append(str(made.directory))

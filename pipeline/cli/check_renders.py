@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.baseline import store_options
+from pavonine.pipeline.cli.limits import limit_options
 from pavonine.pipeline.cli.options import (
     display_options,
     emit_json,
@@ -18,7 +19,7 @@ from pavonine.pipeline.cli.options import (
     say,
     threads_option,
 )
-from pavonine.pipeline.cli.values import SEED, max_pixels_option
+from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.compare.baselines import (
     BASELINES_DIR,
     SceneCheck,
@@ -30,6 +31,7 @@ from pavonine.pipeline.compare.baselines import (
 )
 from pavonine.pipeline.compare.methods import METHODS
 from pavonine.pipeline.errors import InputError, one_line_errors
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 
 JSON_SCHEMA = {
     "type": "object",
@@ -73,11 +75,17 @@ def run_checks(
     baselines_dir: Path = BASELINES_DIR,
     methods: tuple[str, ...] = METHODS,
     seed: int | None = None,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> list[tuple[SceneCheck, float]]:
-    """Render and compare each stage with its baseline (progress on stderr); checks and seconds."""
+    """Render and compare each stage with its baseline (progress on stderr); checks and seconds.
+
+    Every baseline's check settings are held against ``limits`` before the first render.
+    """
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     baselines = [baseline_for(stage, baselines_dir) for stage in stages]
+    for baseline in baselines:
+        baseline.check_limits(limits)
     checks: list[tuple[SceneCheck, float]] = []
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
     with progress_bar(*columns) as progress:
@@ -85,7 +93,7 @@ def run_checks(
         for stage, baseline in zip(stages, baselines, strict=True):
             progress.update(task, description=f"rendering {scene_name(stage)}")
             start = time.perf_counter()
-            check = check_stage(stage, baseline, seed=seed, methods=methods)
+            check = check_stage(stage, baseline, seed=seed, methods=methods, limits=limits)
             checks.append((check, time.perf_counter() - start))
             progress.advance(task)
             detail = ", ".join(
@@ -146,12 +154,12 @@ def report_entries(checks: list[SceneCheck]):
 )
 @click.option("--seed", type=SEED, help="Override the check seed recorded with each baseline.")
 @store_options
+@limit_options
 @json_option(JSON_SCHEMA)
 @junit_option
 @display_options
 @threads_option
 @requires("mitsuba", "drjit", "flip_evaluator")
-@max_pixels_option
 @one_line_errors
 def check_renders(
     scenes: tuple[str, ...],
@@ -163,6 +171,7 @@ def check_renders(
     json_target: str | None,
     junit: Path | None,
     display,
+    limits: RenderLimits,
 ) -> None:
     """Render SCENES (default: every shipped scene) and compare each with its baseline.
 
@@ -174,7 +183,9 @@ def check_renders(
     if not stages:
         raise InputError(str(scenes_dir), "no shipped scenes (*.usda) to check")
     methods = METHODS if method == "all" else (method,)
-    timed = run_checks(stages, baselines_dir=baselines_dir, methods=methods, seed=seed)
+    timed = run_checks(
+        stages, baselines_dir=baselines_dir, methods=methods, seed=seed, limits=limits
+    )
     checks = [check for check, _ in timed]
     page = None
     if report is not None:

@@ -7,8 +7,8 @@
 * Usage errors (unknown option, bad value, missing argument), bad input
   (:class:`~pavonine.pipeline.errors.InputError`) and a missing optional extra each print one line
   ``error: <where>: <message>`` on stderr and exit with status 2.
-* Ctrl-C prints one line ``error: interrupted …`` and exits with status 130 (files are written
-  atomically, so an interrupted command leaves none half-written).
+* Ctrl-C (``KeyboardInterrupt``) prints ``error: <command>: interrupted`` and exits with 130
+  (128 + SIGINT, as shells do).
 """
 
 from __future__ import annotations
@@ -27,6 +27,17 @@ from pavonine.pipeline.cli.options import (
     verbosity_options,
 )
 from pavonine.pipeline.errors import EXIT_BAD_INPUT, InputError
+
+#: Exit status after Ctrl-C: 128 + SIGINT, what a shell reports for a process killed by it.
+EXIT_INTERRUPTED = 130
+
+
+class Interrupted(Exception):
+    """Ctrl-C inside a command (carried past click, which would turn it into "Aborted!")."""
+
+    def __init__(self, command: str):
+        super().__init__(command)
+        self.command = command
 
 
 def _param_name(param: click.Parameter) -> str:
@@ -72,14 +83,6 @@ def _add_global_options(command: click.Command) -> click.Command:
     return command
 
 
-#: Exit status after Ctrl-C (128 + SIGINT), as shells report an interrupted command.
-EXIT_INTERRUPTED = 130
-
-
-class Interrupted(Exception):
-    """Ctrl-C inside a command: reported as one line, exit :data:`EXIT_INTERRUPTED`."""
-
-
 class PavonineGroup(click.Group):
     """Lazy subcommands from a ``name → "module:attribute"`` table, and the error convention."""
 
@@ -108,8 +111,9 @@ class PavonineGroup(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
-        except KeyboardInterrupt:  # click would turn it into Abort ("aborted", exit 1)
-            raise Interrupted() from None
+        except KeyboardInterrupt:
+            command = f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip()
+            raise Interrupted(command) from None
         except ModuleNotFoundError as exc:
             error = missing_extra(exc, f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip())
             if error is None:
@@ -133,15 +137,18 @@ class PavonineGroup(click.Group):
         except click.ClickException as exc:
             click.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
             sys.exit(exc.exit_code)
-        except (Interrupted, KeyboardInterrupt):
-            click.echo("error: interrupted (Ctrl-C)", err=True)
-            sys.exit(EXIT_INTERRUPTED)
         except click.Abort as exc:
-            if isinstance(exc.__cause__, KeyboardInterrupt):  # Ctrl-C while click parsed
-                click.echo("error: interrupted (Ctrl-C)", err=True)
+            if isinstance(exc.__cause__, KeyboardInterrupt):  # Ctrl-C before a command ran
+                click.echo(f"error: {prog_name or 'pavonine'}: interrupted", err=True)
                 sys.exit(EXIT_INTERRUPTED)
             click.echo("aborted", err=True)
             sys.exit(1)
+        except Interrupted as exc:
+            click.echo(f"error: {exc.command}: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        except KeyboardInterrupt:  # Ctrl-C outside a command's invoke (click's own parsing)
+            click.echo(f"error: {prog_name or 'pavonine'}: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
         except (InputError, ParameterError) as exc:  # commands use @one_line_errors; the rest
             click.echo(f"error: {exc}", err=True)
             sys.exit(EXIT_BAD_INPUT)

@@ -15,6 +15,7 @@ from typing import Any
 
 import click
 
+from pavonine.pipeline.cli.limits import limit_options
 from pavonine.pipeline.cli.options import (
     display_options,
     emit_json,
@@ -27,10 +28,11 @@ from pavonine.pipeline.cli.options import (
     threads_option,
     warnings_to_log,
 )
-from pavonine.pipeline.cli.values import SEED, FiniteFloat, max_pixels_option
+from pavonine.pipeline.cli.values import SEED, FiniteFloat
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.pipeline.farm.jobs import RenderJob, View
 from pavonine.pipeline.farm.options import farm_options
+from pavonine.render.limits import RenderLimits
 
 _PATH_OR_NULL = {"type": ["string", "null"]}
 
@@ -161,11 +163,11 @@ JSON_SCHEMA = {
     help="Random seed; the same seed gives the same image.",
 )
 @click.option("--variant", default=None, help="Mitsuba variant [default: llvm_ad_spectral].")
+@limit_options
 @display_options
 @threads_option
 @json_option(JSON_SCHEMA)
 @requires("mitsuba", "drjit")
-@max_pixels_option
 @one_line_errors
 def render(
     stage: Path,
@@ -187,6 +189,7 @@ def render(
     variant: str | None,
     display,
     json_target: str | None,
+    limits: RenderLimits,
 ) -> None:
     """Render a USD STAGE with the spectral Mitsuba delegate.
 
@@ -199,6 +202,10 @@ def render(
     Frame ranges, turntables, several cameras and sample shards write numbered images
     (OUT.####.exr; docs/farm.md) and run on a Dask cluster: embedded (--workers N, the default
     for more than one image) or existing (--scheduler ADDRESS).
+
+    Image size, samples per pixel and instance counts have ceilings (--max-pixels, --max-spp,
+    --max-instances; docs/reliability.md), checked before the render starts. Ctrl-C stops a
+    render with exit status 130 and writes nothing.
     """
     from pavonine.pipeline.farm import cli as farm
     from pavonine.render.imageio import check_writable
@@ -206,6 +213,9 @@ def render(
 
     # Everything the user typed is checked before the (possibly long) render.
     size = None if resolution is None else parse_resolution(resolution)
+    limits.check_spp(spp)
+    if size is not None:
+        limits.check_resolution(size, "--resolution")
     if output is not None and output.suffix.lower() != ".exr":
         raise InputError(str(output), "output must be an .exr file (use --png for a display image)")
     if png_out is not None and png_out.suffix.lower() != ".png":
@@ -221,7 +231,7 @@ def render(
             check_writable(path)
         report = farm.render_batch(
             stage, batch, spp=spp, workers=workers, scheduler=scheduler, split=split, seed=seed,
-            variant=variant, display=display, on_image=_show_with_warnings,
+            variant=variant, display=display, on_image=_show_with_warnings, limits=limits,
         )  # fmt: skip
     else:
         from pavonine.pipeline.farm.jobs import plan
@@ -241,7 +251,7 @@ def render(
             check_writable(path)
         report = _render_here(
             stage, views, jobs, spp=spp, size=size, time=time_, seed=seed, variant=variant,
-            variance=variance, display=display,
+            variance=variance, display=display, limits=limits,
         )  # fmt: skip
     images = report["images"]
     emit_json(
@@ -291,6 +301,7 @@ def _render_here(
     variant: str | None,
     variance: bool,
     display,
+    limits: RenderLimits,
 ) -> dict[str, Any]:
     """Every view at one time code in this process: one Mitsuba scene, a sensor per product."""
     from pavonine.backend import BackendWarning
@@ -312,6 +323,7 @@ def _render_here(
             moments=variance,
             progress=show_progress(),
             products=wanted or None,
+            limits=limits,
         )
     files, images = [], []
     for job, result in zip(jobs, results, strict=True):

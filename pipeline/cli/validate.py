@@ -71,8 +71,11 @@ def open_stage(path: str):
 
     if not os.path.isfile(path):
         raise ValueError("no such file")
+    from pavonine.schemas.findings import quiet_usd_stderr
+
     try:
-        stage = Usd.Stage.Open(path)
+        with quiet_usd_stderr():  # composition errors come back as findings, on one line each
+            stage = Usd.Stage.Open(path)
     except Tf.ErrorException as exc:
         raise ValueError(parser_message(exc)) from None
     if stage is None:

@@ -28,6 +28,7 @@ from pavonine.pipeline.compare.methods import (
     read_variance,
 )
 from pavonine.pipeline.errors import InputError
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.shipped import baselines_dir, display_path, scenes_dir
 
 #: The shipped scenes and baselines (a checkout's ``assets/``, or an installed wheel's data).
@@ -100,6 +101,15 @@ class Baseline:
         """Settings for re-rendering this scene in CI (recorded at update time)."""
         where = str(self.directory / INFO_FILE)
         return CheckSettings.from_json(self.info.get("check", CHECK_SETTINGS.to_json()), where)
+
+    def check_limits(self, limits: RenderLimits = DEFAULT_LIMITS) -> CheckSettings:
+        """The check settings, refused (naming ``baseline.json``'s field) beyond ``limits``."""
+        settings = self.check_settings
+        where = f"{self.directory / INFO_FILE}: check"
+        limits.check_spp(settings.spp, f"{where}.spp")
+        if settings.resolution is not None:
+            limits.check_resolution(settings.resolution, f"{where}.resolution")
+        return settings
 
     @property
     def recorded_sha256(self) -> str | None:
@@ -232,7 +242,11 @@ class SceneRender:
 
 
 def render_scene(
-    stage: str | Path, settings: CheckSettings, *, progress: bool = False
+    stage: str | Path,
+    settings: CheckSettings,
+    *,
+    progress: bool = False,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> SceneRender:
     """Render ``stage`` with :func:`pavonine.render.api.render_stage`, with per-pixel variance."""
     from pavonine.render.api import render_stage
@@ -244,6 +258,7 @@ def render_scene(
         seed=settings.seed,
         moments=True,
         progress=progress,
+        limits=limits,
     )
     rgb = np.asarray(result.rgb, dtype=np.float32)
     variance = np.maximum(np.asarray(result.variance, dtype=np.float32), 0.0)
@@ -264,6 +279,7 @@ def update_baseline(
     check: CheckSettings = CHECK_SETTINGS,
     command: str = "",
     progress: bool = False,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> Baseline:
     """Render ``stage`` at ``settings`` and replace its baseline folder atomically."""
     stage = Path(stage)
@@ -275,10 +291,13 @@ def update_baseline(
         raise InputError(
             "check seed", "must differ from the baseline seed (a check must not replay it)"
         )
-    render = render_scene(stage, settings, progress=progress)
+    limits.check_resolution(size, "--resolution")
+    limits.check_spp(settings.spp, "--spp")
+    limits.check_spp(check.spp, "--check-spp")
+    render = render_scene(stage, settings, progress=progress, limits=limits)
     if not np.all(np.isfinite(render.rgb)):
         raise InputError(str(stage), "render has NaN or infinite pixels; refusing to store it")
-    calibration = calibrate(stage, render, check, progress=progress)
+    calibration = calibrate(stage, render, check, progress=progress, limits=limits)
     target = Path(baselines_dir) / name
     info = {
         "format": FORMAT_VERSION,
@@ -322,6 +341,7 @@ def calibrate(
     *,
     seeds: int = CALIBRATION_SEEDS,
     progress: bool = False,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> dict[str, Any]:
     """Measure seed-to-seed noise: render ``check`` with other seeds and compare with the baseline.
 
@@ -331,7 +351,7 @@ def calibrate(
     record: dict[str, Any] = {"seeds": [], "stat_max_z_ratio": [], "flip_mean": []}
     for k in range(1, seeds + 1):
         settings = CheckSettings(check.resolution, check.spp, check.seed + k)
-        render = render_scene(stage, settings, progress=progress)
+        render = render_scene(stage, settings, progress=progress, limits=limits)
         stat, flip = (
             compare_arrays(
                 render.rgb, baseline.rgb, method,
@@ -377,9 +397,10 @@ def check_stage(
     methods: tuple[str, ...] = ("stat", "flip"),
     options: CompareOptions | None = None,
     progress: bool = False,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> SceneCheck:
     """Render ``stage`` with the baseline's check settings (another seed) and compare."""
-    settings = baseline.check_settings
+    settings = baseline.check_limits(limits)
     if seed is not None:
         settings = CheckSettings(settings.resolution, settings.spp, seed)
     if settings.resolution != baseline.mean.size:
@@ -388,7 +409,7 @@ def check_stage(
             f"check resolution {settings.resolution} differs from the baseline's {baseline.mean.size}",
         )
     options = options or options_for(baseline)
-    render = render_scene(stage, settings, progress=progress)
+    render = render_scene(stage, settings, progress=progress, limits=limits)
     results = [
         compare_arrays(
             render.rgb,

@@ -14,6 +14,7 @@ import click
 from pavonine.pipeline.cli.options import log, say, show_progress
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.farm.jobs import RenderJob, View, parse_frames, plan
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 
 if TYPE_CHECKING:
     from pavonine.materials.display import DisplayTransform
@@ -139,6 +140,7 @@ def render_batch(
     variant: str | None,
     display: DisplayTransform,
     on_image,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> dict[str, Any]:
     """Run a planned farm call (see :mod:`pavonine.pipeline.farm`); returns its report fields."""
     from pavonine.backend import thread_count
@@ -160,7 +162,9 @@ def render_batch(
             log.info("rendering in this process: local Dask workers need the [farm] extra")
             workers = 0
     use_cluster = scheduler is not None or (workers or 0) > 0
-    options = dict(spp=spp, seed=seed, variant=variant, display=display, on_image=on_image)
+    options = dict(
+        spp=spp, seed=seed, variant=variant, display=display, on_image=on_image, limits=limits
+    )
     try:
         if use_cluster:
             with open_cluster(workers, scheduler, threads=thread_count()) as cluster:

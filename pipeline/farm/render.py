@@ -23,6 +23,7 @@ from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.farm.jobs import RenderJob, shard_seed, shards_for
 from pavonine.pipeline.farm.merge import merge_means, merge_variances
 from pavonine.pipeline.farm.tasks import RenderShard, RenderTask, render_task
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 
 if TYPE_CHECKING:
     from pavonine.materials.display import DisplayTransform
@@ -60,6 +61,7 @@ def make_tasks(
     shards: int,
     variant: str | None,
     threads: int | None,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> list[RenderTask]:
     """Every task of a batch; stage contents are hashed here, once per stage."""
     from pavonine import __version__
@@ -85,6 +87,7 @@ def make_tasks(
                     moments=moments,
                     variant=variant,
                     threads=threads,
+                    limits=limits,
                     version=__version__,
                     job=index,
                     shard=k,
@@ -197,6 +200,7 @@ def run_batch(
     cluster=None,
     progress: bool = True,
     on_image: Callable[[dict[str, Any]], None] | None = None,
+    limits: RenderLimits = DEFAULT_LIMITS,
 ) -> BatchReport:
     """Render ``jobs`` (module docstring); ``cluster`` from :func:`~.cluster.open_cluster`, or
     ``None`` to render one task after another in this process."""
@@ -212,7 +216,9 @@ def run_batch(
 
     started = time.perf_counter()
     threads = None if cluster is None else cluster.threads_per_render
-    tasks = make_tasks(jobs, spp=spp, seed=seed, shards=shards, variant=variant, threads=threads)
+    tasks = make_tasks(
+        jobs, spp=spp, seed=seed, shards=shards, variant=variant, threads=threads, limits=limits
+    )
     per_job: dict[int, list[RenderShard]] = {}
     needed = {i: sum(1 for t in tasks if t.job == i) for i in range(len(jobs))}
     report = BatchReport(

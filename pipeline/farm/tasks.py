@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from pavonine.pipeline.errors import InputError
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 
 _RENDER_LOCK = threading.Lock()
 THREADS_ENV = "PAVONINE_RENDER_THREADS"
@@ -53,6 +54,7 @@ class RenderTask:
     moments: bool = False
     variant: str | None = None
     threads: int | None = None
+    limits: RenderLimits = DEFAULT_LIMITS  # the client's render ceilings (--max-…)
     version: str = ""
     job: int = 0
     shard: int = 0
@@ -155,6 +157,7 @@ def render_task(task: RenderTask) -> RenderShard:
                 variant=task.variant,
                 moments=task.moments,
                 progress=False,
+                limits=task.limits,
             )
         done = time.perf_counter()
     return RenderShard(

@@ -31,6 +31,7 @@ __all__ = [
     "cone_solid_angle",
     "default_lights",
     "distant_light",
+    "is_dark",
     "is_light",
     "mesh_light_radiance",
     "radiance",
@@ -61,6 +62,13 @@ def radiance(prim: Usd.Prim, time: Usd.TimeCode) -> np.ndarray:
     return _radiance(LightReader(prim, time, Diagnostics()))
 
 
+def is_dark(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
+    """The light emits nothing Mitsuba can sample: its radiance is zero, negative or not finite
+    (Mitsuba refuses such emitters: "no probability mass found")."""
+    emitted = radiance(prim, time)
+    return not (np.all(np.isfinite(emitted)) and np.all(emitted >= 0) and np.any(emitted > 0))
+
+
 def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> np.ndarray:
     """A ``MeshLightAPI`` mesh's radiance; its other UsdLux attributes are audited (warned)."""
     reader = LightReader(prim, time, diag)
@@ -87,6 +95,14 @@ def translate_light(
         return None
     if kind not in SUPPORTED:
         reader.warn(f"{kind or 'light'} is not supported by the Mitsuba delegate; skipped")
+        return None
+    if is_dark(prim, time):
+        emitted = radiance(prim, time)
+        reader.warn(
+            f"inputs:intensity × 2^inputs:exposure × inputs:color = {emitted.tolist()}: the light "
+            "emits nothing (zero, negative or not finite); skipped (it still counts as the "
+            "stage's lighting: no default sun and sky)"
+        )
         return None
     if kind == "DistantLight":
         entry = distant.translate(reader, world_usd, scene_center, scene_radius)

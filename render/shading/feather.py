@@ -80,6 +80,7 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
             diag.warn(path, f"{name} map {file!r} not found; using the map's neutral value")
             maps[name] = None
     plugin.register()
+    _check_spectral(path)
     bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
     attributes = {BARB_TANGENT: plugin.BARB_TANGENT_ATTRIBUTE}
     return MaterialSpec(
@@ -90,3 +91,20 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
         two_sided=True,
         is_feather=True,
     )
+
+
+def _check_spectral(path: str) -> None:
+    """The feather BSDF evaluates spectra: an RGB or monochrome Mitsuba variant cannot render it.
+
+    Refused with one line naming ``--variant`` (rendering the feather as something else would be
+    a different picture passed off as this one).
+    """
+    import mitsuba as mi
+
+    variant = mi.variant() or ""
+    if "spectral" not in variant:
+        raise InputError(
+            "--variant",
+            f"{variant} is not a spectral variant, and the feather material {path} is rendered "
+            "spectrally; use llvm_ad_spectral or scalar_spectral",
+        )
