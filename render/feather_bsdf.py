@@ -276,8 +276,18 @@ def _plugin_class(variant: str):
             self.instance_tables: dict[str, tuple] = {}
 
         def set_instance_table(self, key: str, table, neutral: float) -> None:
-            """Per-instance values of ``key`` by registry id (``pavonine.render.instance_primvars``)."""
-            self.instance_tables[key] = (table, float(neutral))
+            """Per-instance values of ``key`` by registry id (``pavonine.render.instance_primvars``).
+
+            The table's entry count enters the kernel as an *opaque* value: the registry ids,
+            hence the table's length, differ from one scene build to the next, and a literal
+            length would make every build trace a new kernel (a full LLVM compile of the
+            whole path tracer, the dominant cost of rendering a train twice in one process).
+            """
+            entries = None
+            if not isinstance(table, dict):
+                stride = FRAME_FLOATS if key == INSTANCE_FRAME else 1
+                entries = dr.opaque(mi.UInt32, dr.width(table) // stride)
+            self.instance_tables[key] = (table, float(neutral), entries)
 
         def _barb_tangent(self, si, active):
             """The mesh's barb-tangent attribute at ``si``, in world space.
@@ -290,13 +300,13 @@ def _plugin_class(variant: str):
             entry = self.instance_tables.get(INSTANCE_FRAME)
             if entry is None:
                 return mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, si, active))
-            table = entry[0]
+            table, _, entries = entry
             if isinstance(table, dict):  # scalar variants: the instance object itself
                 frame = table.get(si.instance.id()) if si.instance is not None else None
                 m = frame if frame is not None else _IDENTITY_FRAME
             else:
                 index = dr.reinterpret_array(mi.UInt32, si.instance)
-                inside = index < dr.width(table) // FRAME_FLOATS
+                inside = index < entries
                 base = dr.select(inside, index, 0) * FRAME_FLOATS
                 m = [dr.gather(mi.Float, table, base + k, active) for k in range(FRAME_FLOATS)]
             p = si.p
@@ -318,12 +328,12 @@ def _plugin_class(variant: str):
             entry = self.instance_tables.get(key)
             if entry is None:
                 return None
-            table, neutral = entry
+            table, neutral, entries = entry
             if isinstance(table, dict):  # scalar variants: the instance object itself
                 instance = si.instance
                 return table.get(instance.id(), neutral) if instance is not None else neutral
             index = dr.reinterpret_array(mi.UInt32, si.instance)
-            inside = index < dr.width(table)
+            inside = index < entries
             return dr.select(inside, dr.gather(mi.Float, table, index, active & inside), neutral)
 
         # -- per-point material state ------------------------------------------------------

@@ -253,3 +253,28 @@ def test_plugin_works_in_the_scalar_fallback_variant():
         [sys.executable, "-c", SCALAR_CHECK], capture_output=True, text=True, timeout=300
     )
     assert result.returncode == 0 and result.stdout.strip().endswith("ok"), result.stderr[-2000:]
+
+
+def test_instance_table_length_does_not_enter_the_kernel():
+    """A per-instance table is as long as the largest instance registry id, which moves from one
+    scene build to the next; the traced BSDF must not change with it (a changed kernel is a full
+    LLVM compile of the whole path tracer, paid again on every render of an instanced train)."""
+    bsdf = mi.load_dict(_plugin_dict(2, 0.5))
+
+    def traced_hash(entries: int) -> str:
+        bsdf.set_instance_table("gradation_offset", mi.Float(np.full(entries, 0.1)), 0.0)
+        i = dr.arange(mi.Float, 16)  # inputs traced, not copied from NumPy (alignment is hashed)
+        si = dr.zeros(mi.SurfaceInteraction3f, 16)
+        si.wi = dr.normalize(mi.Vector3f(dr.cos(i), 0.3, 1.0))
+        si.wavelengths = mi.Spectrum(*(400.0 + 20.0 * i + 70.0 * k for k in range(4)))
+        si.instance = dr.reinterpret_array(mi.ShapePtr, dr.opaque(mi.UInt32, 0, 16))
+        wo = dr.normalize(mi.Vector3f(dr.sin(i), dr.cos(0.7 * i), 1.0 + 0.1 * i))
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+        try:
+            dr.eval(bsdf.eval(mi.BSDFContext(), si, wo))
+            history = dr.kernel_history()
+        finally:
+            dr.set_flag(dr.JitFlag.KernelHistory, False)
+        return max(history, key=lambda k: k.get("operation_count") or 0)["hash"]
+
+    assert traced_hash(10) == traced_hash(300)
