@@ -81,11 +81,13 @@ _GEOM_METADATA = {"MissingUpAxisMetadata", "MissingMetersPerUnitMetadata"}
 
 @functools.cache
 def sdr_knows_materialx() -> bool:
-    """True when USD's shader registry holds MaterialX node definitions (a USD build with
-    ``usdMtlx``); usd-core has none."""
+    """True when USD's shader registry reads MaterialX node definitions (a USD build with
+    ``usdMtlx``: a parser of source type ``mtlx``); usd-core has none. The shader definitions
+    ``pavonine env`` puts on Sdr's search path (``schemas/shaderDefs``) do not count: they
+    cover only the nodes a converted asset uses."""
     from pxr import Sdr
 
-    return any(n.startswith("ND_") for n in Sdr.Registry().GetShaderNodeIdentifiers())
+    return "mtlx" in Sdr.Registry().GetAllShaderNodeSourceTypes()
 
 
 def _is_mtlx_lookup(finding: Finding) -> bool:
@@ -99,10 +101,10 @@ def _adjust_usd_findings(stage: Usd.Stage, findings: list[Finding]) -> list[Find
     * usd-core ships no usdMtlx, so Sdr knows no MaterialX node definition and
       ``ShaderSdrCompliance`` rejects every MaterialX shader (``info:id = "ND_…"``): Pavonine's
       ``ND_pavonine_feather_surfaceshader`` and the standard nodes of the map-reading and
-      portable networks alike. Where Sdr knows no MaterialX node at all those findings are
-      dropped (``FeatherDerivedShaders`` checks the feather shader against its ``.mtlx`` node
-      definition instead); with usdMtlx they are kept (a missing
-      ``PXR_MTLX_PLUGIN_SEARCH_PATHS``, say).
+      portable networks alike (unless ``pavonine env``'s shader definitions are on Sdr's
+      search path). Without usdMtlx those findings are dropped (``FeatherDerivedShaders``
+      checks the feather shader against its ``.mtlx`` node definition instead); with usdMtlx
+      they are kept (a missing ``PXR_MTLX_PLUGIN_SEARCH_PATHS``, say).
     * ``upAxis``/``metersPerUnit`` describe geometry; a layer without any (a material library)
       gets them as warnings rather than errors.
     """

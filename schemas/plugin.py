@@ -27,6 +27,12 @@ PLUG_INFO = PLUGIN_DIR / "plugInfo.json"
 #: Directory holding the validator plugin's ``plugInfo.json`` (Python code: ``validation.py``).
 VALIDATORS_DIR = PLUGIN_DIR / "validators"
 VALIDATORS_PLUG_INFO = VALIDATORS_DIR / "plugInfo.json"
+#: Directory of USD shader definitions (``ND_….usda``) of the MaterialX nodes a converted asset
+#: uses, for Sdr's filesystem discovery in USD builds without usdMtlx
+#: (:mod:`pavonine.pipeline.shading.sdr_defs`).
+SHADER_DEFS_DIR = PLUGIN_DIR / "shaderDefs"
+#: Their extension: a discovery type of USD's shader-definition parser.
+SHADER_DEFS_EXTENSION = "usda"
 
 SCHEMA_NAME = "PavonineFeatherAPI"
 PLUGIN_NAME = "pavonine"

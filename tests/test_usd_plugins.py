@@ -1,7 +1,8 @@
 """``eval "$(pavonine env)"`` in a Python that has usd-core but cannot import pavonine: the schema
 and its fallbacks are there, every USD validator loads, and UsdValidation finds nothing on a
-converted asset but the Sdr lookups of MaterialX nodes that usd-core (no usdMtlx) cannot know.
-Pavonine's validators are opt-in (``--validators``), for Pythons that can import pavonine."""
+converted asset: Sdr knows its MaterialX nodes from the shader definitions that ``pavonine env``
+puts on Sdr's filesystem search path, although usd-core has no usdMtlx. Pavonine's validators are
+opt-in (``--validators``), for Pythons that can import pavonine."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import textwrap
 import pytest
 
 from pavonine.materials.materialx import MTLX_PATH, NODEDEF
+from pavonine.pipeline.cli.env import SDR_EXTS_ENV_VAR, SDR_PATHS_ENV_VAR
 from pavonine.schemas import plugin
 
 #: Run in the child before anything else: pavonine cannot be imported there.
@@ -70,12 +72,16 @@ def _clean_env() -> dict[str, str]:
     return env
 
 
-def _run_with_env_lines(args: list[str], asset, probe: str = PROBE) -> dict:
-    """``eval "$(pavonine env ARGS)"`` in a shell, then a fresh ``python -I`` running ``probe``."""
+def _run_with_env_lines(args: list[str], asset, probe: str = PROBE, drop=()) -> dict:
+    """``eval "$(pavonine env ARGS)"`` in a shell (without the lines setting a variable in
+    ``drop``), then a fresh ``python -I`` running ``probe``."""
     pavonine = [sys.executable, "-m", "pavonine.pipeline.cli", "env", *args]
     lines = subprocess.run(
         pavonine, capture_output=True, text=True, check=True, env=_clean_env()
     ).stdout
+    lines = "\n".join(
+        line for line in lines.splitlines() if not any(f" {name}=" in line for name in drop)
+    )
     script = f'{lines}\nexec "{sys.executable}" -I -c "$PROBE" "$ASSET"\n'
     result = subprocess.run(
         ["sh", "-c", script],
@@ -100,6 +106,8 @@ def test_env_prints_the_schema_and_the_materialx_search_path():
     assert out == [
         f"export PXR_PLUGINPATH_NAME={plugin.PLUGIN_DIR}",
         f"export PXR_MTLX_PLUGIN_SEARCH_PATHS={MTLX_PATH.parent}",
+        f"export PXR_SDR_FS_PLUGIN_SEARCH_PATHS={plugin.SHADER_DEFS_DIR}",
+        "export PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda",
     ]
     with_validators = subprocess.run(
         [sys.executable, "-m", "pavonine.pipeline.cli", "env", "--validators"],
@@ -112,24 +120,36 @@ def test_env_prints_the_schema_and_the_materialx_search_path():
         f"export PXR_PLUGINPATH_NAME=/opt/other{os.pathsep}{plugin.PLUGIN_DIR}"
         f"{os.pathsep}{plugin.VALIDATORS_DIR}"
     )
+    # Sdr's extension list is appended to, not replaced (another studio's OSL shaders, say).
+    other_exts = subprocess.run(
+        [sys.executable, "-m", "pavonine.pipeline.cli", "env"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**_clean_env(), SDR_EXTS_ENV_VAR: "oso"},
+    ).stdout.splitlines()
+    assert other_exts[-1] == f"export {SDR_EXTS_ENV_VAR}=oso{os.pathsep}usda"
 
 
-def test_a_python_without_pavonine_loads_every_validator_and_finds_only_mtlx_lookups(eye_asset):
+def test_a_python_without_pavonine_loads_every_validator_and_finds_no_error(eye_asset):
     out = _run_with_env_lines([], eye_asset)
     assert out["pavonine_importable"] is False
     assert out["schema"] is True and out["fallback"] == 15.0
     assert str(MTLX_PATH.parent) in out["mtlx_paths"].split(os.pathsep)
     assert out["validators"] and not any(v.startswith("pavonine") for v in out["validators"])
+    # usd-core has no usdMtlx: Sdr knows the asset's MaterialX nodes (Pavonine's and the standard
+    # ones) only from the shader definitions on its filesystem search path.
+    assert out["errors"] == []
+
+
+def test_without_the_sdr_search_path_usd_core_cannot_find_the_materialx_nodes(eye_asset):
+    """What the shader definitions fix: without them, ShaderSdrCompliance rejects every
+    MaterialX shader of the asset, Pavonine's node and the standard ones alike."""
+    out = _run_with_env_lines([], eye_asset, drop=(SDR_PATHS_ENV_VAR, SDR_EXTS_ENV_VAR))
     lookups = [SDR_LOOKUP.fullmatch(e["message"]) for e in out["errors"]]
-    unexpected = [
-        e
-        for e, match in zip(out["errors"], lookups, strict=True)
-        if not (match and e["validator"] == "usdShadeValidators:ShaderSdrCompliance")
-    ]
-    assert unexpected == []
-    # What remains is usd-core's missing usdMtlx: Pavonine's node and the standard MaterialX
-    # nodes of the map-reading and portable networks, never a UsdPreviewSurface node.
-    ids = {m.group(1) for m in lookups if m}
+    assert all(lookups) and out["errors"]
+    assert {e["validator"] for e in out["errors"]} == {"usdShadeValidators:ShaderSdrCompliance"}
+    ids = {m.group(1) for m in lookups}
     assert NODEDEF in ids and "ND_image_float" in ids and "ND_open_pbr_surface_surfaceshader" in ids
 
 

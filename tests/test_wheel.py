@@ -108,6 +108,8 @@ def test_wheel_carries_the_shipped_data_and_the_licence(installed):
         "pavonine/assets/baselines/eye_feather_sun/mean.exr",
         "pavonine/materials/data/cie1931_d65_1nm.csv",
         "pavonine/schemas/plugInfo.json",
+        "pavonine/schemas/shaderDefs/ND_pavonine_feather_surfaceshader.usda",
+        "pavonine/schemas/shaderDefs/ND_image_float.usda",
         "pavonine-0.1.0.dist-info/licenses/LICENSE",
     ):
         assert name in names, name

@@ -8,10 +8,20 @@ import shlex
 import click
 
 from pavonine.materials.materialx import MTLX_PATH
-from pavonine.schemas.plugin import ENV_VAR, append_paths, env_value
+from pavonine.schemas.plugin import (
+    ENV_VAR,
+    SHADER_DEFS_DIR,
+    SHADER_DEFS_EXTENSION,
+    append_paths,
+    env_value,
+)
 
 #: Where a USD build with usdMtlx looks for MaterialX node definitions.
 MTLX_ENV_VAR = "PXR_MTLX_PLUGIN_SEARCH_PATHS"
+#: Where Sdr's filesystem discovery looks for shader definition files, and which extensions it
+#: takes (USD 25.08 and later; earlier builds read ``PXR_NDR_FS_PLUGIN_…``).
+SDR_PATHS_ENV_VAR = "PXR_SDR_FS_PLUGIN_SEARCH_PATHS"
+SDR_EXTS_ENV_VAR = "PXR_SDR_FS_PLUGIN_ALLOWED_EXTS"
 
 
 #: Characters PowerShell reads as a single quote (it folds the typographic ones into ``'``).
@@ -49,11 +59,19 @@ def assignment(name: str, value: str, shell: str) -> str:
 
 def env_lines(validators: bool = False) -> dict[str, str]:
     """Variable → value: the schema plugin (and, on request, the validator plugin) appended to
-    ``PXR_PLUGINPATH_NAME``, and the folder of ``pavonine_feather.mtlx`` appended to
-    ``PXR_MTLX_PLUGIN_SEARCH_PATHS``; existing values are kept."""
+    ``PXR_PLUGINPATH_NAME``, the folder of ``pavonine_feather.mtlx`` to
+    ``PXR_MTLX_PLUGIN_SEARCH_PATHS``, and the shader definitions of the asset's MaterialX nodes
+    (:mod:`pavonine.pipeline.shading.sdr_defs`) to Sdr's filesystem discovery (folder and
+    ``usda`` extension); existing values are kept."""
+
+    def append(name: str, paths: list[str]) -> str:
+        return append_paths(os.environ.get(name, ""), paths)
+
     return {
         ENV_VAR: env_value(validators=validators),
-        MTLX_ENV_VAR: append_paths(os.environ.get(MTLX_ENV_VAR, ""), [str(MTLX_PATH.parent)]),
+        MTLX_ENV_VAR: append(MTLX_ENV_VAR, [str(MTLX_PATH.parent)]),
+        SDR_PATHS_ENV_VAR: append(SDR_PATHS_ENV_VAR, [str(SHADER_DEFS_DIR)]),
+        SDR_EXTS_ENV_VAR: append(SDR_EXTS_ENV_VAR, [SHADER_DEFS_EXTENSION]),
     }
 
 
@@ -72,7 +90,7 @@ def env_lines(validators: bool = False) -> dict[str, str]:
     "import pavonine).",
 )
 def env(shell: str, validators: bool) -> None:
-    """Print the environment that makes PavonineFeatherAPI and the MaterialX node visible to USD.
+    """Print the environment that makes PavonineFeatherAPI and the MaterialX nodes visible to USD.
 
     Use it in processes that do not import pavonine (usdview, DCCs, other renderers):
 
@@ -80,9 +98,11 @@ def env(shell: str, validators: bool) -> None:
 
     PXR_PLUGINPATH_NAME gets the schema's plugin folder (only the schema: any USD process can
     load it); PXR_MTLX_PLUGIN_SEARCH_PATHS gets the folder of pavonine_feather.mtlx (the node
-    ND_pavonine_feather_surfaceshader, for USD builds with MaterialX). Existing values are kept.
-    Values are quoted for the chosen shell, so evaluating the lines never runs code, whatever
-    the paths contain.
+    ND_pavonine_feather_surfaceshader, for USD builds with MaterialX).
+    PXR_SDR_FS_PLUGIN_SEARCH_PATHS gets the USD shader definitions of the MaterialX nodes a
+    converted asset uses and PXR_SDR_FS_PLUGIN_ALLOWED_EXTS gets usda, so that Sdr knows them in
+    USD builds without usdMtlx (usd-core) too. Existing values are kept. Values are quoted for
+    the chosen shell, so evaluating the lines never runs code, whatever the paths contain.
     With --validators, PXR_PLUGINPATH_NAME also gets the validator plugin, which imports
     pavonine.schemas.validation.
     """
