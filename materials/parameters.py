@@ -444,6 +444,16 @@ PRESETS: dict[str, FeatherParameters] = {
 }
 
 
+#: Gradation at which a preset's classes hold the structure they were measured or tabulated at:
+#: the middle for ``freyer2020`` (:func:`freyer_class`), the black end (t = 0) otherwise.
+PRESET_GRADATION: dict[str, float] = {"freyer2020": 0.5}
+
+
+def preset_gradation(name: str) -> float:
+    """The gradation (0-1) at which preset ``name`` shows its measured or tabulated structure."""
+    return PRESET_GRADATION.get(name, 0.0)
+
+
 def preset(name: str) -> FeatherParameters:
     """A named preset (``paper-table1``, ``freyer2020``, ``yellow``, ``blue``)."""
     try:

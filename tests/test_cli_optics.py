@@ -194,3 +194,17 @@ def test_figures_in_the_physical_mode(runner, tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
     assert seen == ["physical"]
     assert (tmp_path / "fig5_blue.png").stat().st_size > 1000
+
+
+def test_spectra_default_gradation_is_where_the_preset_was_measured(runner):
+    """freyer2020 holds its measured structure at gradation ½ (its ends are scaled by ∓3 %)."""
+
+    def peaks(*extra):
+        args = ["spectra", "--preset", "freyer2020", "--class", "2", "--observe", "15", "--json"]
+        result = runner.invoke(cli, [*args, "-", *extra])
+        assert result.exit_code == 0, result.output
+        return [s["peak_nm"] for s in json.loads(result.stdout)["spectra"]]
+
+    default = peaks()
+    assert default == peaks("--gradation", "0.5")
+    assert default != peaks("--gradation", "0")

@@ -133,9 +133,9 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 @click.option(
     "--gradation",
     type=FiniteFloat(),
-    default=0.0,
-    show_default=True,
-    help="0 = black end, 1 = white end (freyer2020: 0.5 = the measured region).",
+    default=None,
+    help="0 = black end, 1 = white end [default: where the preset holds its measured structure: "
+    "0.5 for freyer2020, 0 otherwise].",
 )
 @click.option(
     "--interval",
@@ -212,6 +212,10 @@ def spectra(
         preset_name, ocellar_class, interval, radius, layers, interference
     )
     observe_deg = _angles(observe)
+    if gradation is None:
+        from pavonine.materials.parameters import preset_gradation
+
+        gradation = preset_gradation(preset_name) if interval is None else 0.0
     kwargs = dict(
         ocellar_class=ocellar_class or 0,
         gradation=gradation,
