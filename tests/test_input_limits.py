@@ -245,6 +245,55 @@ def test_pixel_budget_override_by_flag(tmp_path, huge_pngs):
             "pixel budget of 10 ")  # fmt: skip
 
 
+@pytest.mark.parametrize("decorator", ["max_pixels_option", "limit_options"])
+@pytest.mark.parametrize("fails", [False, True], ids=["succeeds", "fails"])
+def test_pixel_budget_lasts_as_long_as_the_command(monkeypatch, decorator, fails):
+    """Both ways a command takes ``--max-pixels`` apply it through one helper
+    (``apply_pixel_budget``): in force while the command runs, the budget before restored after
+    it, also when it fails (commands run in-process by tests and tools must not inherit it)."""
+    import click
+    from click.testing import CliRunner
+
+    from pavonine.pipeline.cli.limits import limit_options
+    from pavonine.pipeline.cli.values import max_pixels_option
+
+    monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
+    seen = []
+
+    def body(**kwargs) -> None:
+        seen.append(limits.max_pixels())
+        if fails:
+            raise InputError("x.png", "bad input")
+
+    wrap = {"max_pixels_option": max_pixels_option, "limit_options": limit_options}[decorator]
+    command = click.command()(wrap(body))
+    for flag, expected in (("77", 77), ("0", 2**62)):
+        if flag == "0" and decorator == "max_pixels_option":
+            continue  # 0 (no budget) is only for the render ceilings' flag
+        result = CliRunner().invoke(command, ["--max-pixels", flag])
+        assert seen[-1] == expected, result.output
+        assert (result.exit_code != 0) == fails, result.output
+        assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+    with limits.pixel_budget(1234):  # nested in a caller's budget: that one comes back
+        CliRunner().invoke(command, ["--max-pixels", "55"])
+        assert seen[-1] == 55 and limits.max_pixels() == 1234
+    assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+
+
+def test_pixel_budget_is_reset_after_a_real_command_refused_by_it(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from pavonine.pipeline.cli import cli
+
+    monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
+    png = real_png(tmp_path / "small.png", 16, 16)
+    for args in (["compare", "--max-pixels", "10", str(png), str(png)],
+                 ["render", "--max-pixels", "10", str(tmp_path / "missing.usda")]):  # fmt: skip
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 2, result.output
+        assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+
+
 def test_map_header_declaring_far_more_pixels_than_it_holds(tmp_path):
     from pavonine.pipeline.maps.io import read_map
 
