@@ -39,7 +39,8 @@ from hypothesis import strategies as st
 
 from pavonine.pipeline.errors import InputError
 
-pytestmark = pytest.mark.fuzz
+#: A numpy warning (an overflowing cast, an invalid value) is an unhandled case: fail on it.
+pytestmark = [pytest.mark.fuzz, pytest.mark.filterwarnings("error::RuntimeWarning")]
 
 SCALE = max(1, int(os.environ.get("PAVONINE_FUZZ_SCALE", "1")))
 SHIPPED_SCENE = Path(__file__).resolve().parents[1] / "assets" / "scenes" / "blue_feather_sun.usda"

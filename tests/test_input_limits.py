@@ -176,6 +176,41 @@ def test_crescent_sigma_nan_named_with_the_file_and_the_key(tmp_path):
     convert_refused(tmp_path, recipe, f"{recipe}: material.crescent_sigma_deg: must be finite")
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # numpy's "overflow encountered in cast"
+@pytest.mark.parametrize("value", [1e308, 1e39, -1e39])
+@pytest.mark.parametrize(
+    "key, material",
+    [
+        ("material.crescent_sigma_deg", lambda v: {"crescent_sigma_deg": v}),
+        ("material.rod_length_um", lambda v: {"rod_length_um": v}),
+        ("material.melanin_color", lambda v: {"melanin_color": [0.1, v, 0.1]}),
+        (
+            "material.class.0.long.interval",
+            lambda v: {"class": {"0": {"long": {"interval": [v, 0.2]}}}},
+        ),
+    ],
+)
+def test_numbers_beyond_float32_are_one_line_errors_without_numpy_warnings(
+    tmp_path, key, material, value
+):
+    """Values finite as doubles but beyond float32 (what USD stores; a cast made them inf with
+    numpy's "overflow encountered in cast" warning) get the same one-line error as any other
+    out-of-range value, naming the recipe and the key, and no warning."""
+    recipe = recipe_file(tmp_path, material={"preset": "paper-table1", **material(value)})
+    line = convert_refused(tmp_path, recipe, f"{recipe}: {key}")
+    assert "must" in line and "inf" not in line, line
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_parameters_beyond_float32_are_refused_by_validate_without_numpy_warnings():
+    from pavonine.materials.parameters import ParameterError, f32, preset
+
+    assert f32(1e39) == np.inf and f32(-1e308) == -np.inf and f32(10**400) == np.inf
+    assert f32(3.4028235e38) == float(np.finfo(np.float32).max)  # rounds down, not to inf
+    with pytest.raises(ParameterError, match="crescent_sigma_deg: must be finite"):
+        preset("paper-table1").with_(crescent_sigma_deg=1e308).validate()
+
+
 @pytest.mark.mitsuba
 def test_crescent_sigma_nan_in_usd_render_names_the_layer_and_attribute(tmp_path):
     from pxr import Usd
