@@ -537,6 +537,66 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
     assert_nothing_left(out)
 
 
+def console_script(tmp_path: Path) -> Path:
+    """The ``pavonine`` console script as pip writes it for ``pyproject.toml``'s entry point: the
+    installed one if it is current, else the same text in ``tmp_path`` (an environment installed
+    before the entry point changed)."""
+    import tomllib
+
+    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    module, function = project["project"]["scripts"]["pavonine"].split(":")
+    installed = Path(sys.executable).parent / "pavonine"
+    if installed.exists() and f"from {module} import {function}\n" in installed.read_text():
+        return installed
+    script = tmp_path / "pavonine"
+    script.write_text(
+        f"#!{sys.executable}\nimport re\nimport sys\nfrom {module} import {function}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({function}())\n"
+    )
+    script.chmod(0o755)
+    return script
+
+
+def test_ctrl_c_at_any_moment_from_start_up_is_one_line_and_exit_130(tmp_path):
+    """Ctrl-C 0.02 s to 1.5 s after ``pavonine validate`` starts: while Python starts, while the
+    command line and USD load (``import pavonine`` used to load USD, before any handling was in
+    place: a traceback), while the command runs. Always one line and exit 130, or exit 0 if it
+    had finished; never a traceback, never a USD warning swallowing the interrupt.
+
+    Before Pavonine's first line runs, Python's own start-up (``site`` and the environment's
+    ``.pth`` files) owns SIGINT and fails with "Fatal Python error: init_import_site"; that
+    outcome is accepted only for a delay shorter than twice the start-up of a bare interpreter
+    with the same ``site``, measured here."""
+    script = console_script(tmp_path)
+    asset = Path(__file__).parents[1] / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
+    starts = []
+    for _ in range(3):
+        began = time.monotonic()
+        subprocess.run([sys.executable, "-c", "pass"], check=True)
+        starts.append(time.monotonic() - began)
+    python_start_up = 2 * max(starts)
+    outcomes = []
+    for delay in (0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5):
+        proc = subprocess.Popen([script, "validate", asset], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)  # fmt: skip
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=120)
+        outcomes.append((delay, proc.returncode, stderr))
+        if stderr.startswith("Fatal Python error: init_import_site") and delay < python_start_up:
+            continue  # Python's own start-up, before any Pavonine code
+        assert "Traceback" not in stderr and "Tf_PyPostProcessModule" not in stderr, (delay, stderr)
+        if proc.returncode == 0:
+            continue  # finished before the interrupt
+        lines = stderr.strip().splitlines()
+        assert proc.returncode == 130, (delay, proc.returncode, stderr)
+        assert len(lines) == 1 and lines[0].startswith("error: pavonine"), (delay, stderr)
+        assert lines[0].endswith(": interrupted"), (delay, stderr)
+    assert sum(code == 130 for _, code, _ in outcomes) >= 5, outcomes  # most were interrupted
+
+
 def test_out_of_memory_within_the_budget_is_named_not_internal(tmp_path, monkeypatch):
     """Maps under the pixel budget may still exhaust a small machine: a MemoryError is reported
     as bad input naming the recipe, not as an "internal error"."""
