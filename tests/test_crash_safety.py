@@ -343,14 +343,21 @@ def test_render_exr_png_crash_leaves_each_file_whole_the_pair_detectable_and_rec
     assert hidden_entries(tmp_path) == []
 
 
-@pytest.mark.parametrize("step", ["files.journal", "files.renaming"])
-def test_maps_crash_leaves_whole_maps_and_recovery_completes_the_set(tmp_path, step):
-    outdir = tmp_path / "maps"
+def map_versions(outdir: Path) -> tuple[tuple, dict[str, dict[str, str]]]:
+    """``maps`` arguments writing into ``outdir`` and the two versions (seed 1 "old", in place;
+    seed 2 "new"), by file content."""
     args = ("maps", "eye", "-o", outdir, "--size", "64", "--no-contact-sheet", "-q")
     versions = {}
     for label, seed in (("new", "2"), ("old", "1")):
         assert pavonine(*args, "--seed", seed).returncode == 0
         versions[label] = snapshot(outdir)
+    return args, versions
+
+
+@pytest.mark.parametrize("step", ["files.journal", "files.renaming"])
+def test_maps_crash_leaves_whole_maps_and_recovery_completes_the_set(tmp_path, step):
+    outdir = tmp_path / "maps"
+    args, versions = map_versions(outdir)
     assert pavonine(*args, "--seed", "2", fault=step).killed
     state = snapshot(outdir)
     if step == "files.journal":
@@ -444,11 +451,7 @@ def test_maps_killed_between_any_two_renames_are_never_read_as_a_mixed_set(tmp_p
     from pavonine.pipeline.maps.io import read_data_map
 
     outdir = tmp_path / "maps"
-    args = ("maps", "eye", "-o", outdir, "--size", "64", "--no-contact-sheet", "-q")
-    versions = {}
-    for label, seed in (("new", "2"), ("old", "1")):
-        assert pavonine(*args, "--seed", seed).returncode == 0
-        versions[label] = snapshot(outdir)
+    args, versions = map_versions(outdir)
     renamed = sorted(versions["old"])  # the order of the renames
     for after in range(1, len(renamed)):
         assert pavonine(*args, "--seed", "2", fault=f"files.renaming#{after}").killed

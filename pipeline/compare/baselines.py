@@ -28,7 +28,7 @@ from pavonine.pipeline.compare.methods import (
     read_variance,
 )
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute, new_group_id, read_mark
+from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute, read_mark
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.shipped import baselines_dir, display_path, scenes_dir
 
@@ -329,8 +329,12 @@ def update_baseline(
     # Built inside the baselines folder, then exchanged with the old baseline in one atomic
     # step (pavonine.pipeline.commit): a reader sees the old baseline or the new one, whole.
     # Its files are also marked as one group (pavonine.pipeline.groups): where the file system
-    # cannot exchange folders the commit is file by file, and load_baseline refuses a mix.
-    group_id = new_group_id()
+    # cannot exchange folders the commit is file by file, and load_baseline refuses a mix. The
+    # id is a hash of the pixels: the same render gives the same files.
+    digest = hashlib.sha256()
+    for pixels in (render.rgb, render.variance):
+        digest.update(np.ascontiguousarray(pixels, dtype=np.float32).tobytes())
+    group_id = digest.hexdigest()[:32]
     info["group"] = group_id
     with staged_folder(target, replace=True, subject=name) as staging:
         files = [staging / f for f in (MEAN_FILE, VARIANCE_FILE, PREVIEW_FILE)]
