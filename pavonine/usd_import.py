@@ -5,7 +5,7 @@ USD builds its schema registry once, from the plugins known when a stage or
 ``Usd.SchemaRegistry`` is first used, and silently ignores plugins registered later
 (:mod:`pavonine.schemas.plugin`). ``import pavonine`` must therefore register
 ``PavonineFeatherAPI`` before any USD use in the process (users' scripts included), but loading
-USD takes a third of a second, and doing it inside ``import pavonine`` left the ``pavonine``
+USD takes a tenth of a second or more, and doing it inside ``import pavonine`` left the ``pavonine``
 command without its Ctrl-C handling for that long (a ``KeyboardInterrupt`` traceback).
 
 So ``import pavonine`` calls :func:`install`: if ``pxr`` is already imported it registers at
