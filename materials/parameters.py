@@ -36,8 +36,22 @@ class ParameterError(ValueError):
         self.kind = kind
 
 
+#: Largest finite float32 (about 3.4e38): USD's ``float`` attributes hold nothing larger.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: Half an ulp above :data:`FLOAT32_MAX`: from here on, rounding to float32 gives ±inf.
+_F32_OVERFLOW = 2.0**128 - 2.0**103
+
+
 def f32(value: float) -> float:
-    """``value`` rounded to the nearest float32, as USD stores ``float`` attributes."""
+    """``value`` rounded to the nearest float32, as USD stores ``float`` attributes; a finite
+    value beyond float32's range becomes ±inf, as it would in USD (which the ``validate``
+    methods refuse), without numpy's overflow warning."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        try:
+            if abs(float(value)) >= _F32_OVERFLOW:
+                return math.inf if value > 0 else -math.inf
+        except OverflowError:  # an integer beyond even float64
+            return math.inf if value > 0 else -math.inf
     return float(np.float32(value))
 
 

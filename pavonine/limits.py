@@ -60,6 +60,19 @@ def set_max_pixels(count: int | None) -> None:
     _override = count
 
 
+@contextlib.contextmanager
+def pixel_budget(count: int | None) -> Iterator[None]:
+    """Use ``count`` as the pixel budget inside the ``with`` block (``None``: leave it as it is),
+    then restore the budget that was in force before, whether the block succeeded or raised."""
+    before = _override
+    if count is not None:
+        set_max_pixels(count)
+    try:
+        yield
+    finally:
+        set_max_pixels(before)
+
+
 def max_pixels() -> int:
     """The pixel budget in force: ``--max-pixels``, else ``$PAVONINE_MAX_PIXELS``, else default."""
     if _override is not None:

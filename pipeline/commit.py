@@ -16,9 +16,11 @@ manifest written before the first move lets :func:`recover` finish an interrupte
 Groups of files (a render's EXR + PNG + variance, a set of maps): :func:`commit_files`. All
 files are first complete under temporary names; a journal naming every rename is written; the
 renames follow in the caller's order; the journal is deleted. Each file is atomic on its own;
-between the first and the last rename (microseconds, or after a crash until the next run) a
-reader can see some files new and others old, and the journal says which renames are pending.
-:func:`recover` (run by every writer on its output folder before it starts) completes them.
+between the first and the last rename (microseconds, or after a crash until the next run) the
+folder holds some files new and others old, and the journal says which renames are pending.
+:func:`recover` (run by every writer on its output folder before it starts, and by every reader
+of such a group: :mod:`pavonine.pipeline.groups`) completes them; the files' ``pavonine:group``
+marks let readers refuse a mix whose journal is gone.
 
 Temporaries carry the writer's process id (``.<name>.pavonine-<kind>-<pid>-<random>``):
 :func:`recover` removes those of dead processes only, so a run never touches the staging of a
@@ -320,7 +322,7 @@ def commit_files(moves: Sequence[tuple[Path, Path]], subject: str | None = None)
                 os.replace(tmp, target)
             except OSError as exc:
                 raise InputError(str(target), f"cannot write: {exc.strerror or exc}") from None
-            if i == 0:
+            if i < len(moves) - 1:  # between two renames (PAVONINE_FAULT=files.renaming#N)
                 checkpoint("files.renaming", subject)
     except BaseException:  # Ctrl-C or a failed rename: the journal is the commit point
         for tmp, target in moves:
@@ -332,7 +334,7 @@ def commit_files(moves: Sequence[tuple[Path, Path]], subject: str | None = None)
         os.unlink(journal)
 
 
-def _owner_alive(name: str) -> bool:
+def owner_alive(name: str) -> bool:
     """Whether the process that made temporary ``name`` still runs (``-<kind>-<pid>-``)."""
     try:
         pid = int(name.rsplit(TEMPORARY_MARK, 1)[1].split("-")[1])
@@ -368,7 +370,7 @@ def recover(folder: str | os.PathLike) -> list[str]:
         names = sorted(n for n in os.listdir(folder) if n.startswith(".") and TEMPORARY_MARK in n)
     except (FileNotFoundError, NotADirectoryError):
         return []
-    stale = [n for n in names if not _owner_alive(n)]
+    stale = [n for n in names if not owner_alive(n)]
     done = []
     for name in (n for n in stale if f"{TEMPORARY_MARK}{JOURNAL}-" in n):
         path = folder / name

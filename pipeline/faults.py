@@ -2,7 +2,8 @@
 
 ``PAVONINE_FAULT=STEP`` makes the process kill itself with ``SIGKILL`` when it reaches
 ``checkpoint(STEP)``; ``PAVONINE_FAULT=STEP@SUBJECT`` only where the checkpoint's subject (an
-asset or scene name) is ``SUBJECT``. It exists so that ``tests/test_crash_safety.py`` can crash a
+asset or scene name) is ``SUBJECT``; ``PAVONINE_FAULT=STEP#N`` (also ``STEP#N@SUBJECT``) the
+``N``-th time it reaches that step (a step reached several times: between each two renames). It exists so that ``tests/test_crash_safety.py`` can crash a
 real ``pavonine`` process exactly between two steps of a commit and check what a reader is left
 with. It is for tests only: never set it in production. When it is unset a checkpoint is one
 comparison with ``None``.
@@ -20,7 +21,8 @@ The steps (``docs/reliability.md`` lists which command reaches which):
     A group of files (EXR + PNG + variance, a set of maps) is written under temporary names and
     its commit journal is on disk; nothing renamed yet.
 ``files.renaming``
-    The first file of such a group is renamed into place, the others not yet.
+    Between two renames of such a group: ``files.renaming`` (or ``#1``) after the first file is
+    renamed into place, ``files.renaming#N`` after the ``N``-th, the others not yet.
 ``convert.recipe``
     A ``convert`` worker starts a recipe (subject: the asset name); kills one worker of a batch.
 """
@@ -43,12 +45,19 @@ STEPS = (
 )
 
 _FAULT: str | None = os.environ.get(FAULT_ENV) or None
+#: Times the step named by ``PAVONINE_FAULT`` was reached (for ``STEP#N``).
+_reached = 0
 
 
 def checkpoint(step: str, subject: str | None = None) -> None:
-    """Die here with ``SIGKILL`` if ``PAVONINE_FAULT`` names ``step`` (and ``subject``)."""
+    """Die here with ``SIGKILL`` if ``PAVONINE_FAULT`` names ``step`` (and ``subject``), at the
+    ``N``-th time for ``STEP#N``."""
+    global _reached
     if _FAULT is None:
         return
     wanted, _, wanted_subject = _FAULT.partition("@")
+    wanted, _, count = wanted.partition("#")
     if wanted == step and (not wanted_subject or wanted_subject == subject):
-        os.kill(os.getpid(), signal.SIGKILL)
+        _reached += 1
+        if _reached >= int(count or 1):
+            os.kill(os.getpid(), signal.SIGKILL)

@@ -13,8 +13,10 @@ right transform. :func:`write_display_png` writes images that already are displa
 Every file is written atomically (a temporary file renamed on success); :func:`write_renders`
 writes a render's EXR, variance EXR and PNG under temporary names first and renames them as one
 journalled group (:func:`pavonine.pipeline.commit.commit_files`): EXR, then variance, then PNG.
-All files of one call share a ``pavonine:render_id`` header attribute, so a reader can tell
-whether an EXR and a PNG come from the same render (docs/reliability.md).
+All files of one call share a ``pavonine:render_id`` header attribute, and each file of one
+image carries ``pavonine:group`` (the id and the image's other files), so a reader can tell
+whether an EXR and a PNG come from the same render; Pavonine's readers check it
+(:mod:`pavonine.pipeline.groups`, docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -25,7 +27,6 @@ import json
 import os
 import re
 import tempfile
-import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -221,25 +222,38 @@ def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | No
     same ``pavonine:render_id``.
     """
     from pavonine.pipeline.commit import commit_files, recover, temporary_file
+    from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute, new_group_id
 
-    render_id = uuid.uuid4().hex
+    render_id = new_group_id()
     for folder in {Path(os.path.abspath(p)).parent for out in outputs for p in _paths(out)}:
         recover(folder)
     with contextlib.ExitStack() as stack:
         moves: list[tuple[Path, Path]] = []
         for out in outputs:
+            group = _paths(out)  # one image's files: each names the others (pipeline/groups.py)
+
+            def mark(member: str | os.PathLike) -> str:
+                return group_attribute(render_id, member, group)  # noqa: B023 (used at once)
+
             exr_tmp = stack.enter_context(temporary_file(out.exr_path))
             metadata = {**(out.metadata or {}), "render_id": render_id}
-            write_exr(exr_tmp, out.rgb, metadata, layers=out.layers)
+            write_exr(
+                exr_tmp, out.rgb, {**metadata, "group": mark(out.exr_path)}, layers=out.layers
+            )
             moves.append((exr_tmp, Path(out.exr_path)))
             if out.variance_path:
                 var_tmp = stack.enter_context(temporary_file(out.variance_path))
                 quantity = {"quantity": "variance of the mean (scene-linear units squared)"}
-                write_exr(var_tmp, out.variance, {**metadata, **quantity})
+                write_exr(
+                    var_tmp,
+                    out.variance,
+                    {**metadata, **quantity, "group": mark(out.variance_path)},
+                )
                 moves.append((var_tmp, Path(out.variance_path)))
             if out.png_path:
                 png_tmp = stack.enter_context(temporary_file(out.png_path))
-                write_png(png_tmp, out.rgb, display, attributes={"pavonine:render_id": render_id})
+                attributes = {"pavonine:render_id": render_id, GROUP_ATTRIBUTE: mark(out.png_path)}
+                write_png(png_tmp, out.rgb, display, attributes=attributes)
                 moves.append((png_tmp, Path(out.png_path)))
         try:
             commit_files(moves)

@@ -41,6 +41,7 @@ HOSTILE_NUMBERS: list[Any] = [
     1e-320,
     1e308,
     -1e308,
+    1e39,  # finite as a double, beyond float32 (USD's float): a cast would overflow to inf
     2**31 - 1,
     2**31,
     2**32,

@@ -343,14 +343,21 @@ def test_render_exr_png_crash_leaves_each_file_whole_the_pair_detectable_and_rec
     assert hidden_entries(tmp_path) == []
 
 
-@pytest.mark.parametrize("step", ["files.journal", "files.renaming"])
-def test_maps_crash_leaves_whole_maps_and_recovery_completes_the_set(tmp_path, step):
-    outdir = tmp_path / "maps"
+def map_versions(outdir: Path) -> tuple[tuple, dict[str, dict[str, str]]]:
+    """``maps`` arguments writing into ``outdir`` and the two versions (seed 1 "old", in place;
+    seed 2 "new"), by file content."""
     args = ("maps", "eye", "-o", outdir, "--size", "64", "--no-contact-sheet", "-q")
     versions = {}
     for label, seed in (("new", "2"), ("old", "1")):
         assert pavonine(*args, "--seed", seed).returncode == 0
         versions[label] = snapshot(outdir)
+    return args, versions
+
+
+@pytest.mark.parametrize("step", ["files.journal", "files.renaming"])
+def test_maps_crash_leaves_whole_maps_and_recovery_completes_the_set(tmp_path, step):
+    outdir = tmp_path / "maps"
+    args, versions = map_versions(outdir)
     assert pavonine(*args, "--seed", "2", fault=step).killed
     state = snapshot(outdir)
     if step == "files.journal":
@@ -388,3 +395,148 @@ def test_ctrl_c_in_the_middle_of_a_commit_rolls_it_forward(tmp_path, monkeypatch
         "a.exr": "new", "a.png": "new", "b.txt": "new" if step == "folder.moving" else "old",
     }  # fmt: skip
     assert hidden_entries(tmp_path / "out") == [] and hidden_entries(tmp_path) == []
+
+
+# ------------------------------------------------------------------ groups: kills between renames
+def _copy_without_hidden(folder: Path, to: Path) -> Path:
+    """The files a backup or ``rsync --exclude '.*'`` of ``folder`` would take: no journal."""
+    to.mkdir()
+    for path in folder.iterdir():
+        if not path.name.startswith("."):
+            shutil.copy2(path, to / path.name)
+    return to
+
+
+@pytest.mark.mitsuba
+@pytest.mark.render
+@pytest.mark.parametrize("after", [1, 2])
+def test_render_group_killed_between_any_two_renames_is_never_read_as_a_mix(tmp_path, after):
+    """``render -o x.exr --png --variance`` commits three files (EXR, variance, PNG), killed
+    after the first or the second rename. Each file stays whole. A Pavonine reader (``compare``)
+    settles the group before reading: it completes the dead writer's commit (the journal is the
+    commit point) and reads the new version. Where the journal is gone (a copy without hidden
+    files, a read-only folder) the mix is refused in one line naming both files."""
+    from pavonine.pipeline.groups import read_mark
+
+    out = tmp_path / "render" / "x.exr"
+    files = [out, out.with_suffix(".variance.exr"), out.with_suffix(".png")]
+    args = ("render", QUAD, "-o", out, "--png", "--variance", "--spp", "4",
+            "--resolution", "16x16", "-q")  # fmt: skip
+    assert pavonine(*args, "--seed", "1").returncode == 0
+    old = read_mark(out).id
+    assert [read_mark(f).id for f in files] == [old] * 3
+
+    assert pavonine(*args, "--seed", "2", fault=f"files.renaming#{after}").killed
+    ids = [read_mark(f).id for f in files]
+    assert ids[after:] == [old] * (3 - after) and old not in ids[:after]  # renamed in order
+    new = ids[0]
+
+    copy = _copy_without_hidden(out.parent, tmp_path / "copy")
+    refused = pavonine("compare", copy / "x.exr", copy / "x.exr")
+    lines = refused.stderr.strip().splitlines()
+    assert refused.returncode == 2 and len(lines) == 1, refused.stderr
+    assert lines[0].startswith(f"error: {copy}/x.") and "mix of two versions" in lines[0], lines
+
+    read = pavonine("compare", out, out, "-q")  # settles: completes the commit, then reads
+    assert read.returncode == 0, read.stderr
+    assert [read_mark(f).id for f in files] == [new] * 3
+    assert hidden_entries(out.parent) == []
+
+
+def test_maps_killed_between_any_two_renames_are_never_read_as_a_mixed_set(tmp_path):
+    """``maps`` commits six maps by six renames; killed after each of the first five, every
+    reader of a map (``read_data_map``: convert, bake, export) completes the set before it reads,
+    and refuses a mixed set whose journal is gone, naming the map and the other file."""
+    from pavonine.pipeline.errors import InputError
+    from pavonine.pipeline.maps.io import read_data_map
+
+    outdir = tmp_path / "maps"
+    args, versions = map_versions(outdir)
+    renamed = sorted(versions["old"])  # the order of the renames
+    for after in range(1, len(renamed)):
+        assert pavonine(*args, "--seed", "2", fault=f"files.renaming#{after}").killed
+        state = snapshot(outdir)
+        assert [state[n] == versions["new"][n] for n in renamed] == [True] * after + [False] * (
+            len(renamed) - after
+        )
+        copy = _copy_without_hidden(outdir, tmp_path / f"copy{after}")
+        for name in (renamed[0], renamed[-1]):  # a new map and an old one
+            with pytest.raises(InputError, match="mix of two versions") as caught:
+                read_data_map(copy / name, "maps.x")
+            assert str(caught.value).startswith(f"{copy / name}: maps.x: is from another write")
+        read_data_map(outdir / renamed[-1], "maps.x")  # settles the set first
+        assert version_of(snapshot(outdir), versions) == "new"
+        assert hidden_entries(outdir) == []
+        assert pavonine(*args, "--seed", "1").returncode == 0  # back to the old set
+
+
+def test_a_reader_waits_while_a_live_writer_is_between_two_renames(tmp_path):
+    """A reader never reads a group while a live writer is half-way through renaming it: it
+    waits for the commit (or, past its time limit, says who is writing), and once the writer
+    is dead it completes the commit itself."""
+    import os
+    import subprocess
+
+    from pavonine.pipeline.errors import TEMPORARY_MARK, InputError
+    from pavonine.pipeline.groups import check_group, read_mark
+    from pavonine.pipeline.maps.paint import generate_maps, write_maps
+
+    folder, staging = tmp_path / "maps", tmp_path / "maps" / ".staging"
+    maps = generate_maps("eye", 16, seed=1)
+    write_maps(maps, folder, group_id="old")
+    write_maps(maps, staging, group_id="new")
+    names = sorted(p.name for p in staging.iterdir())
+    os.replace(staging / names[0], folder / names[0])  # the writer's first rename
+    writer = subprocess.Popen(["sleep", "60"])  # a live process owning the journal
+    journal = folder / f".{names[0]}{TEMPORARY_MARK}journal-{writer.pid}-x.json"
+    journal.write_text(json.dumps([[str(staging / n), str(folder / n)] for n in names]))
+    try:
+        with pytest.raises(InputError, match=f"being replaced by process {writer.pid}"):
+            check_group(folder / names[0], timeout=0.2)
+
+        def finish() -> None:
+            time.sleep(0.3)
+            for name in names[1:]:
+                os.replace(staging / name, folder / name)
+            journal.unlink()
+
+        threading.Thread(target=finish).start()
+        began = time.monotonic()
+        assert check_group(folder / names[-1]).id == "new"
+        assert time.monotonic() - began >= 0.25
+        assert {read_mark(folder / n).id for n in names} == {"new"}
+
+        write_maps(maps, staging, group_id="newer")  # the same again, and the writer dies
+        os.replace(staging / names[0], folder / names[0])
+        journal.write_text(json.dumps([[str(staging / n), str(folder / n)] for n in names]))
+    finally:
+        writer.kill()
+        writer.wait()
+    assert check_group(folder / names[-1]).id == "newer"  # completed by the reader
+    assert {read_mark(folder / n).id for n in names} == {"newer"} and not journal.exists()
+
+
+@pytest.mark.mitsuba
+@pytest.mark.render
+def test_a_baseline_mixed_from_two_updates_is_refused_by_its_readers(tmp_path):
+    """Where folders cannot be exchanged a baseline is replaced file by file; its files carry
+    one group mark (and ``baseline.json`` its id), so ``check-renders`` and ``baseline`` refuse
+    a baseline mixed from two updates instead of comparing against it."""
+    from pavonine.pipeline.compare.baselines import load_baseline
+    from pavonine.pipeline.errors import InputError
+
+    bdir = tmp_path / "baselines"
+    args = ("baseline", "update", QUAD, "--resolution", "12x12", "--check-spp", "64",
+            "--baselines-dir", bdir, "--scenes-dir", tmp_path, "-q")  # fmt: skip
+    folders = {}
+    for label, spp in (("old", "192"), ("new", "256")):
+        assert pavonine(*args, "--spp", spp).returncode == 0
+        folders[label] = shutil.copytree(bdir / "bare_quad", tmp_path / label / "bare_quad")
+    load_baseline(folders["old"])  # each whole version reads
+    load_baseline(folders["new"])
+    for mixed_in, named in (("mean.exr", "mean.exr"), ("baseline.json", "baseline.json")):
+        mixed = shutil.copytree(folders["old"], tmp_path / f"mix-{named}" / "bare_quad")
+        shutil.copy2(folders["new"] / mixed_in, mixed / mixed_in)
+        with pytest.raises(InputError, match="mix of two versions") as caught:
+            load_baseline(mixed)
+        assert str(caught.value).startswith(f"{mixed / named}: "), caught.value

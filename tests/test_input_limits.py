@@ -176,6 +176,41 @@ def test_crescent_sigma_nan_named_with_the_file_and_the_key(tmp_path):
     convert_refused(tmp_path, recipe, f"{recipe}: material.crescent_sigma_deg: must be finite")
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # numpy's "overflow encountered in cast"
+@pytest.mark.parametrize("value", [1e308, 1e39, -1e39])
+@pytest.mark.parametrize(
+    "key, material",
+    [
+        ("material.crescent_sigma_deg", lambda v: {"crescent_sigma_deg": v}),
+        ("material.rod_length_um", lambda v: {"rod_length_um": v}),
+        ("material.melanin_color", lambda v: {"melanin_color": [0.1, v, 0.1]}),
+        (
+            "material.class.0.long.interval",
+            lambda v: {"class": {"0": {"long": {"interval": [v, 0.2]}}}},
+        ),
+    ],
+)
+def test_numbers_beyond_float32_are_one_line_errors_without_numpy_warnings(
+    tmp_path, key, material, value
+):
+    """Values finite as doubles but beyond float32 (what USD stores; a cast made them inf with
+    numpy's "overflow encountered in cast" warning) get the same one-line error as any other
+    out-of-range value, naming the recipe and the key, and no warning."""
+    recipe = recipe_file(tmp_path, material={"preset": "paper-table1", **material(value)})
+    line = convert_refused(tmp_path, recipe, f"{recipe}: {key}")
+    assert "must" in line and "inf" not in line, line
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_parameters_beyond_float32_are_refused_by_validate_without_numpy_warnings():
+    from pavonine.materials.parameters import ParameterError, f32, preset
+
+    assert f32(1e39) == np.inf and f32(-1e308) == -np.inf and f32(10**400) == np.inf
+    assert f32(3.4028235e38) == float(np.finfo(np.float32).max)  # rounds down, not to inf
+    with pytest.raises(ParameterError, match="crescent_sigma_deg: must be finite"):
+        preset("paper-table1").with_(crescent_sigma_deg=1e308).validate()
+
+
 @pytest.mark.mitsuba
 def test_crescent_sigma_nan_in_usd_render_names_the_layer_and_attribute(tmp_path):
     from pxr import Usd
@@ -243,6 +278,55 @@ def test_pixel_budget_override_by_environment(tmp_path, monkeypatch):
 def test_pixel_budget_override_by_flag(tmp_path, huge_pngs):
     refused(["compare", "--max-pixels", "10", str(huge_pngs["20000"]), str(huge_pngs["20000"])],
             "pixel budget of 10 ")  # fmt: skip
+
+
+@pytest.mark.parametrize("decorator", ["max_pixels_option", "limit_options"])
+@pytest.mark.parametrize("fails", [False, True], ids=["succeeds", "fails"])
+def test_pixel_budget_lasts_as_long_as_the_command(monkeypatch, decorator, fails):
+    """Both ways a command takes ``--max-pixels`` apply it through one helper
+    (``apply_pixel_budget``): in force while the command runs, the budget before restored after
+    it, also when it fails (commands run in-process by tests and tools must not inherit it)."""
+    import click
+    from click.testing import CliRunner
+
+    from pavonine.pipeline.cli.limits import limit_options
+    from pavonine.pipeline.cli.values import max_pixels_option
+
+    monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
+    seen = []
+
+    def body(**kwargs) -> None:
+        seen.append(limits.max_pixels())
+        if fails:
+            raise InputError("x.png", "bad input")
+
+    wrap = {"max_pixels_option": max_pixels_option, "limit_options": limit_options}[decorator]
+    command = click.command()(wrap(body))
+    for flag, expected in (("77", 77), ("0", 2**62)):
+        if flag == "0" and decorator == "max_pixels_option":
+            continue  # 0 (no budget) is only for the render ceilings' flag
+        result = CliRunner().invoke(command, ["--max-pixels", flag])
+        assert seen[-1] == expected, result.output
+        assert (result.exit_code != 0) == fails, result.output
+        assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+    with limits.pixel_budget(1234):  # nested in a caller's budget: that one comes back
+        CliRunner().invoke(command, ["--max-pixels", "55"])
+        assert seen[-1] == 55 and limits.max_pixels() == 1234
+    assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+
+
+def test_pixel_budget_is_reset_after_a_real_command_refused_by_it(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from pavonine.pipeline.cli import cli
+
+    monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
+    png = real_png(tmp_path / "small.png", 16, 16)
+    for args in (["compare", "--max-pixels", "10", str(png), str(png)],
+                 ["render", "--max-pixels", "10", str(tmp_path / "missing.usda")]):  # fmt: skip
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 2, result.output
+        assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
 
 
 def test_map_header_declaring_far_more_pixels_than_it_holds(tmp_path):
@@ -451,6 +535,66 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
         and lines[0].endswith(" maps: interrupted")
     ), lines
     assert_nothing_left(out)
+
+
+def console_script(tmp_path: Path) -> Path:
+    """The ``pavonine`` console script as pip writes it for ``pyproject.toml``'s entry point: the
+    installed one if it is current, else the same text in ``tmp_path`` (an environment installed
+    before the entry point changed)."""
+    import tomllib
+
+    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    module, function = project["project"]["scripts"]["pavonine"].split(":")
+    installed = Path(sys.executable).parent / "pavonine"
+    if installed.exists() and f"from {module} import {function}\n" in installed.read_text():
+        return installed
+    script = tmp_path / "pavonine"
+    script.write_text(
+        f"#!{sys.executable}\nimport re\nimport sys\nfrom {module} import {function}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({function}())\n"
+    )
+    script.chmod(0o755)
+    return script
+
+
+def test_ctrl_c_at_any_moment_from_start_up_is_one_line_and_exit_130(tmp_path):
+    """Ctrl-C 0.02 s to 1.5 s after ``pavonine validate`` starts: while Python starts, while the
+    command line and USD load (``import pavonine`` used to load USD, before any handling was in
+    place: a traceback), while the command runs. Always one line and exit 130, or exit 0 if it
+    had finished; never a traceback, never a USD warning swallowing the interrupt.
+
+    Before Pavonine's first line runs, Python's own start-up (``site`` and the environment's
+    ``.pth`` files) owns SIGINT and fails with "Fatal Python error: init_import_site"; that
+    outcome is accepted only for a delay shorter than twice the start-up of a bare interpreter
+    with the same ``site``, measured here."""
+    script = console_script(tmp_path)
+    asset = Path(__file__).parents[1] / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
+    starts = []
+    for _ in range(3):
+        began = time.monotonic()
+        subprocess.run([sys.executable, "-c", "pass"], check=True)
+        starts.append(time.monotonic() - began)
+    python_start_up = 2 * max(starts)
+    outcomes = []
+    for delay in (0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0, 1.5):
+        proc = subprocess.Popen([script, "validate", asset], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)  # fmt: skip
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=120)
+        outcomes.append((delay, proc.returncode, stderr))
+        if stderr.startswith("Fatal Python error: init_import_site") and delay < python_start_up:
+            continue  # Python's own start-up, before any Pavonine code
+        assert "Traceback" not in stderr and "Tf_PyPostProcessModule" not in stderr, (delay, stderr)
+        if proc.returncode == 0:
+            continue  # finished before the interrupt
+        lines = stderr.strip().splitlines()
+        assert proc.returncode == 130, (delay, proc.returncode, stderr)
+        assert len(lines) == 1 and lines[0].startswith("error: pavonine"), (delay, stderr)
+        assert lines[0].endswith(": interrupted"), (delay, stderr)
+    assert sum(code == 130 for _, code, _ in outcomes) >= 5, outcomes  # most were interrupted
 
 
 def test_out_of_memory_within_the_budget_is_named_not_internal(tmp_path, monkeypatch):

@@ -168,6 +168,53 @@ def test_import_pavonine_first_defines_the_schema():
     assert result.stdout.startswith("True Material 2.0 12.5 [(0.19, 0.17)]")
 
 
+_DEFINED = (
+    "print(Usd.SchemaRegistry().FindAppliedAPIPrimDefinition('PavonineFeatherAPI') is not None)"
+)
+
+
+@pytest.mark.parametrize(
+    "before",
+    [
+        "import pavonine\nassert 'pxr' not in sys.modules  # import pavonine does not load USD",
+        "from pxr import Plug\nimport pavonine",  # pxr first, no registry yet: registered at once
+        "import importlib.util, pavonine\nassert importlib.util.find_spec('pxr')  # a probe only",
+        "import pavonine, pavonine\nfrom pxr import Sdf",
+    ],
+    ids=["pavonine-then-usd", "pxr-then-pavonine", "probe-then-usd", "sdf-first"],
+)
+def test_the_schema_is_registered_before_any_use_of_usd_whatever_the_import_order(before):
+    code = f"import sys\n{before}\nfrom pxr import Usd\n{_DEFINED}\n" + _PROBE.format(
+        path=str(DATA / "minimal_feather.usda")
+    )
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[0] == "True", result.stdout
+    assert result.stdout.splitlines()[1].startswith("True Material 2.0 12.5"), result.stdout
+
+
+def test_ctrl_c_while_usd_loads_is_held_until_the_module_is_complete():
+    """USD's module loader turns an exception raised inside it into a printed warning: a Ctrl-C
+    while ``pxr`` loads was lost (the program ran on) or left a half-made module. It is held
+    and raised once the module is complete; the module is then usable."""
+    code = f"""
+import os, signal, threading, pavonine
+threading.Timer(0.03, os.kill, (os.getpid(), signal.SIGINT)).start()
+try:
+    from pxr import Usd
+    print("not interrupted")
+except KeyboardInterrupt:
+    print("interrupted")
+from pxr import Usd
+{_DEFINED}
+print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+"""
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["interrupted", "True", "True"], result.stdout
+    assert "Tf_PyPostProcessModule" not in result.stderr and not result.stderr.strip()
+
+
 def test_stage_without_plugin_loads_keeps_values_plain_material():
     result = run_python(_PROBE.format(path=str(DATA / "minimal_feather.usda")))
     assert result.returncode == 0, result.stderr

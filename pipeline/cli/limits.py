@@ -16,7 +16,8 @@ from typing import Any
 
 import click
 
-from pavonine.limits import DEFAULT_MAX_PIXELS, MAX_PIXELS_ENV, set_max_pixels
+from pavonine.limits import DEFAULT_MAX_PIXELS, MAX_PIXELS_ENV
+from pavonine.pipeline.cli.values import apply_pixel_budget
 from pavonine.render.limits import MAX_INSTANCES, MAX_PIXELS, MAX_SPP, RenderLimits
 
 #: What ``--max-pixels 0`` makes the read budget: no image has this many pixels.
@@ -31,13 +32,9 @@ def limit_options(func: F) -> F:
     @functools.wraps(func)
     def wrapper(*args, max_pixels, max_spp, max_instances, **kwargs):
         limits = RenderLimits.from_flags(max_pixels, max_spp, max_instances)
-        if max_pixels is None:
-            return func(*args, limits=limits, **kwargs)
-        set_max_pixels(max_pixels or UNLIMITED_PIXELS)  # the images read, for this command only
-        try:
-            return func(*args, limits=limits, **kwargs)
-        finally:
-            set_max_pixels(None)
+        # The images read, for this command only (0 lifts the budget too).
+        apply_pixel_budget(None if max_pixels is None else max_pixels or UNLIMITED_PIXELS)
+        return func(*args, limits=limits, **kwargs)
 
     options = [
         click.option(

@@ -6,6 +6,8 @@ Mitsuba's ``uint32``, and the ``--max-pixels`` budget of images read (``pavonine
 ``SEED``                    the type of every seed option: a whole number in ``SEED_RANGE``
 ``max_pixels_option``       ``--max-pixels N`` (else ``$PAVONINE_MAX_PIXELS``): pixel budget of
                             images read, checked from their headers (applied, no param)
+``apply_pixel_budget``      applies a ``--max-pixels`` value for the running command only (also
+                            used by ``limit_options``)
 ==========================  ====================================================================
 """
 
@@ -60,14 +62,18 @@ class FiniteFloat(click.ParamType):
 SEED = click.IntRange(*SEED_RANGE)
 
 
-def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
-    from pavonine.limits import set_max_pixels
+def apply_pixel_budget(count: int | None) -> None:
+    """Make ``count`` the pixel budget of images read for the running command only: the one way
+    every command applies ``--max-pixels``. ``None`` (not given) leaves ``$PAVONINE_MAX_PIXELS``
+    or the default. The budget before is restored when the command's click context closes, also
+    when the command fails, so commands run in-process (tests, other tools) never inherit it."""
+    from pavonine.limits import pixel_budget
 
-    # None (not given) leaves $PAVONINE_MAX_PIXELS or the default, read where the budget is
-    # checked; a given value lasts as long as the command (commands run in-process, by tests or
-    # other tools, must not inherit it).
-    set_max_pixels(value)
-    ctx.call_on_close(lambda: set_max_pixels(None))
+    click.get_current_context().with_resource(pixel_budget(count))
+
+
+def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
+    apply_pixel_budget(value)
 
 
 def max_pixels_option(func: F) -> F:

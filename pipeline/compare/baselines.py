@@ -28,6 +28,7 @@ from pavonine.pipeline.compare.methods import (
     read_variance,
 )
 from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute, read_mark
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.shipped import baselines_dir, display_path, scenes_dir
 
@@ -213,6 +214,14 @@ def load_baseline(directory: str | Path) -> Baseline:
             raise InputError(
                 str(info_path), f"invalid JSON ({exc.msg} at line {exc.lineno})"
             ) from None
+    mark = read_mark(directory / MEAN_FILE)
+    if "group" in info and mark is not None and info["group"] != mark.id:
+        raise InputError(
+            str(info_path),
+            f"is from another write than {MEAN_FILE} (pavonine:group {str(info['group'])[:8]} vs "
+            f"{mark.id[:8]}): the baseline is a mix of two versions; run 'pavonine baseline "
+            f"update {directory.name}' again",
+        )
     return Baseline(directory.name, directory, mean, variance, info)
 
 
@@ -319,14 +328,37 @@ def update_baseline(
 
     # Built inside the baselines folder, then exchanged with the old baseline in one atomic
     # step (pavonine.pipeline.commit): a reader sees the old baseline or the new one, whole.
+    # Its files are also marked as one group (pavonine.pipeline.groups): where the file system
+    # cannot exchange folders the commit is file by file, and load_baseline refuses a mix. The
+    # id is a hash of the pixels: the same render gives the same files.
+    digest = hashlib.sha256()
+    for pixels in (render.rgb, render.variance):
+        digest.update(np.ascontiguousarray(pixels, dtype=np.float32).tobytes())
+    group_id = digest.hexdigest()[:32]
+    info["group"] = group_id
     with staged_folder(target, replace=True, subject=name) as staging:
-        write_exr(staging / MEAN_FILE, render.rgb, {"scene": name, **settings.to_json()})
+        files = [staging / f for f in (MEAN_FILE, VARIANCE_FILE, PREVIEW_FILE)]
+        marks = {f.name: group_attribute(group_id, f, files) for f in files}
+        write_exr(
+            staging / MEAN_FILE,
+            render.rgb,
+            {"scene": name, **settings.to_json(), "group": marks[MEAN_FILE]},
+        )
         write_exr(
             staging / VARIANCE_FILE,
             render.variance,
-            {"scene": name, "quantity": "variance of the mean (scene-linear units squared)"},
+            {
+                "scene": name,
+                "quantity": "variance of the mean (scene-linear units squared)",
+                "group": marks[VARIANCE_FILE],
+            },
         )
-        write_png(staging / PREVIEW_FILE, render.rgb, REFERENCE_DISPLAY)
+        write_png(
+            staging / PREVIEW_FILE,
+            render.rgb,
+            REFERENCE_DISPLAY,
+            attributes={GROUP_ATTRIBUTE: marks[PREVIEW_FILE]},
+        )
         (staging / INFO_FILE).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
         for written in staging.iterdir():
             written.chmod(0o644)

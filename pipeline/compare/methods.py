@@ -81,8 +81,11 @@ class LoadedImage:
 def _read_pixels(path: Path) -> tuple[np.ndarray, dict[str, object]]:
     """All channels of ``path`` as H×W×C float32 and its header attributes, or :class:`InputError`."""
 
+    from pavonine.pipeline.groups import check_group
+
     if not os.path.lexists(path):
         raise InputError(str(path), "no such file")
+    check_group(path)  # a render's EXR, variance and PNG: all from one write
     with open_image(path) as inp:  # a regular file within the pixel budget (pavonine.limits)
         attributes = {a.name: a.value for a in inp.spec().extra_attribs}
         pixels = inp.read_image("float")

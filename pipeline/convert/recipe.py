@@ -21,6 +21,7 @@ from pavonine.limits import read_small_file
 from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import (
     AXES,
+    FLOAT32_MAX,
     FREYER_2020_REGIONS,
     MAX_LAYER_COUNT,
     STACK_QUANTITIES,
@@ -136,6 +137,8 @@ def _number(path: Path, key: str, value: Any, *, positive: bool = True, integer=
         raise _fail(path, key, f"must be positive, got {value}")
     if not positive and value < 0:
         raise _fail(path, key, f"must not be negative, got {value}")
+    if abs(value) > FLOAT32_MAX:  # stored as USD floats: float32 would make it inf
+        raise _fail(path, key, f"must be within ±{FLOAT32_MAX:.4g} (a 32-bit float), got {value:g}")
     return value
 
 

@@ -27,8 +27,15 @@ DATA_COLORSPACE = "Raw"
 _REC709_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
 
 
-def write_map(path: str | os.PathLike, values: np.ndarray, *, description: str = "") -> None:
-    """Write a 2-D array of values in [0, 1] as a single-channel data map.
+def write_map(
+    path: str | os.PathLike,
+    values: np.ndarray,
+    *,
+    description: str = "",
+    attributes: dict[str, str] | None = None,
+) -> None:
+    """Write a 2-D array of values in [0, 1] as a single-channel data map (``attributes``:
+    further header attributes, e.g. the ``pavonine:group`` of a set of maps).
 
     ``.png`` → 16-bit unsigned integer; ``.exr`` → half float (zip). Values are clipped to
     [0, 1]; NaN is rejected. The file appears atomically (written beside, then renamed).
@@ -55,6 +62,8 @@ def write_map(path: str | os.PathLike, values: np.ndarray, *, description: str =
     spec.attribute("Software", "pavonine")
     if description:
         spec.attribute("ImageDescription", description)
+    for key, value in (attributes or {}).items():
+        spec.attribute(key, value)
     from pavonine.render.imageio import write_image_file
 
     # A 2-D array is misread by the Python binding; pass (rows, columns, channels).
@@ -76,8 +85,11 @@ class DataMap:
 
 def read_data_map(path: str | os.PathLike, field: str) -> DataMap:
     """Read a grey map and note its pixel type; see :func:`read_map`."""
+    from pavonine.pipeline.groups import check_group
+
     path = Path(path)
     where = f"{path}: {field}"
+    check_group(path, where)  # not one of a set of maps mixed from two writes
     with open_image(path, where) as image:  # a regular file within the pixel budget
         spec = image.spec()
         pixels = image.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)

@@ -24,6 +24,7 @@ the feather's length and pixels are square.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Callable
@@ -428,15 +429,30 @@ def generate_maps(kind: str, size: int = 1024, seed: int = 0) -> dict[str, np.nd
 
 
 def write_maps(
-    maps: dict[str, np.ndarray], outdir: str | os.PathLike, extension: str = ".png"
+    maps: dict[str, np.ndarray],
+    outdir: str | os.PathLike,
+    extension: str = ".png",
+    group_id: str | None = None,
 ) -> dict[str, Path]:
-    """Write each map as ``OUTDIR/<name><extension>``; returns the paths by map name."""
+    """Write each map as ``OUTDIR/<name><extension>``; returns the paths by map name.
+
+    The six are marked as one group (``pavonine:group``, :mod:`pavonine.pipeline.groups`) so
+    that readers refuse a set mixed from two writes. Its id is ``group_id``, by default a hash
+    of the maps' contents: the same maps give the same bytes (``--seed`` reproduces a set)."""
+    from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute
+
     outdir = Path(outdir)
-    paths = {}
-    for name in MAP_NAMES:
-        path = outdir / f"{name}{extension}"
-        write_map(path, maps[name], description=f"pavonine {name} map (paper section 3.3)")
-        paths[name] = path
+    paths = {name: outdir / f"{name}{extension}" for name in MAP_NAMES}
+    if group_id is None:
+        digest = hashlib.sha256(extension.encode())
+        for name in MAP_NAMES:
+            values = np.ascontiguousarray(maps[name], dtype=np.float32)
+            digest.update(f"{name}{values.shape}".encode() + values.tobytes())
+        group_id = digest.hexdigest()[:32]
+    for name, path in paths.items():
+        marks = {GROUP_ATTRIBUTE: group_attribute(group_id, path, paths.values())}
+        description = f"pavonine {name} map (paper section 3.3)"
+        write_map(path, maps[name], description=description, attributes=marks)
     return paths
 
 
