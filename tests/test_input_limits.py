@@ -306,6 +306,7 @@ def test_demo_seed_minus_1(tmp_path):
     assert not (tmp_path / "demo").exists()
 
 
+@pytest.mark.mitsuba  # `render` checks that Mitsuba loads before it reads its options
 def test_render_resolution_100000x100000(tmp_path):
     refused(
         ["render", str(SHIPPED_SCENE), "--resolution", "100000x100000", "-o", str(tmp_path / "r.exr")],
