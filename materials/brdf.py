@@ -218,17 +218,24 @@ def stack_in_nm(stack: LayerStack) -> tuple[float, float, float]:
 
 @functools.cache
 def _melanin_coefficients(color: tuple[float, float, float]) -> np.ndarray:
-    """Mitsuba's upsampling coefficients of ``color``; without Mitsuba, the same fit in NumPy
-    (:mod:`pavonine.materials.upsampling`, checked against Mitsuba's in the tests)."""
-    try:
-        import mitsuba  # noqa: F401
-    except ImportError:
-        from pavonine.materials.upsampling import fit_sigmoid_polynomial
+    """Mitsuba's upsampling coefficients of ``color``; without Mitsuba (not installed, or unable
+    to load a system library), the same fit in NumPy (:mod:`pavonine.materials.upsampling`,
+    checked against Mitsuba's in the tests)."""
+    import importlib.util
 
-        return fit_sigmoid_polynomial(color)
     from pavonine.backend import select_variant
+    from pavonine.materials.upsampling import fit_sigmoid_polynomial
 
-    select_variant()
+    try:
+        installed = importlib.util.find_spec("mitsuba") is not None
+    except (ImportError, ValueError):
+        installed = False
+    if not installed:
+        return fit_sigmoid_polynomial(color)
+    try:
+        select_variant()
+    except ImportError:  # RendererUnavailable: Dr.Jit is installed but cannot load
+        return fit_sigmoid_polynomial(color)
     import mitsuba as mi
 
     return np.array(mi.srgb_model_fetch(mi.ScalarColor3f(*color)), dtype=np.float64)

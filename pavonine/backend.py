@@ -13,6 +13,7 @@ worker threads of Dr.Jit, OpenImageIO and the BLAS/OpenMP libraries (``--threads
 from __future__ import annotations
 
 import glob
+import importlib.util
 import json
 import os
 import re
@@ -42,6 +43,11 @@ class BackendWarning(UserWarning):
     """Raised (as a warning) when Pavonine has to fall back to a slow scalar variant."""
 
 
+class RendererUnavailable(ImportError):
+    """Dr.Jit (so Mitsuba) is installed but cannot load: a system library it needs is missing
+    (Debian's ``libatomic1``). The message is one line naming the library."""
+
+
 @dataclass(frozen=True)
 class Backend:
     """What :func:`select_variant` chose."""
@@ -53,6 +59,8 @@ class Backend:
 
 
 _selected: Backend | None = None
+#: Why Dr.Jit cannot load in this process, once :func:`select_variant` found out.
+_unavailable: str | None = None
 _threads: int | None = None
 
 #: Read by OpenMP/BLAS libraries (NumPy, SciPy, pymeshlab) when they load, and by child processes.
@@ -117,9 +125,20 @@ def find_libllvm(min_major: int = MIN_LLVM_MAJOR) -> tuple[str, int] | None:
     return path, major
 
 
+#: Exit status of the probe when Dr.Jit itself cannot load: a verdict on the system, not on the
+#: libLLVM, so it is not cached (installing the library must take effect at once).
+NO_DRJIT_STATUS = 3
 #: What the probe runs: a kernel using the min/max that LLVM < 16 cannot select (``fminimum``).
 _PROBE_CODE = """
-import drjit as dr
+import sys
+try:
+    import drjit as dr
+except Exception as exc:  # Dr.Jit hides the ImportError of a missing .so behind a NameError
+    cause = exc
+    while cause is not None and not isinstance(cause, ImportError):
+        cause = cause.__context__
+    print("Dr.Jit cannot load:", " ".join(str(cause or exc).split()), file=sys.stderr)
+    raise SystemExit(NO_DRJIT_STATUS)
 if not dr.has_backend(dr.JitBackend.LLVM):
     raise SystemExit("Dr.Jit could not initialise its LLVM back-end with this library")
 from drjit.llvm import Float
@@ -128,10 +147,12 @@ dr.eval(x)
 if [float(v) for v in x] != [2.0, 3.0]:
     raise SystemExit(f"wrong result {list(x)}")
 print("ok")
-"""
+""".replace("NO_DRJIT_STATUS", str(NO_DRJIT_STATUS))
 #: Seconds a probe may take (compiling one kernel takes well under one).
 PROBE_TIMEOUT = 60.0
 _probed: dict[tuple, tuple[bool, str]] = {}
+#: Why Dr.Jit could not load in the last probe (None: it loaded, or no probe ran).
+_drjit_error: str | None = None
 
 
 def probe_cache_path() -> Path:
@@ -179,6 +200,7 @@ def _write_cache(key: str, verdict: tuple[bool, str]) -> None:
 
 
 def _run_probe(path: str) -> tuple[bool, str]:
+    global _drjit_error
     env = {**os.environ, "DRJIT_LIBLLVM_PATH": path}
     try:
         done = subprocess.run(
@@ -195,6 +217,9 @@ def _run_probe(path: str) -> tuple[bool, str]:
         return False, f"cannot start the probe ({exc.strerror or exc})"
     if done.returncode == 0 and done.stdout.strip().endswith("ok"):
         return True, "ok"
+    if done.returncode == NO_DRJIT_STATUS and "Dr.Jit cannot load" in done.stderr:
+        _drjit_error = done.stderr.strip().splitlines()[-1]
+        return False, _drjit_error
     lines = [line.strip() for line in (done.stderr + done.stdout).splitlines() if line.strip()]
     detail = next((line for line in lines if "LLVM ERROR" in line or "Unable to load" in line), "")
     detail = detail or (lines[-1] if lines else "")
@@ -211,8 +236,10 @@ def probe_libllvm(path: str) -> tuple[bool, str]:
 
     Runs in a subprocess, because an unusable library aborts the process that loads it. The
     verdict is cached in memory and in :func:`probe_cache_path` per (path, size, mtime, Dr.Jit
-    version): a replaced library is probed again.
+    version): a replaced library is probed again. When Dr.Jit itself cannot load, the verdict is
+    about the system, not the library: it is neither cached nor memoised.
     """
+    global _drjit_error
     try:
         key = _probe_key(path)
     except OSError as exc:
@@ -229,7 +256,10 @@ def probe_libllvm(path: str) -> tuple[bool, str]:
     ):
         verdict = (cached[0], cached[1])
     else:
+        _drjit_error = None
         verdict = _run_probe(path)
+        if _drjit_error is not None:
+            return verdict  # about the system, not this library: neither cached nor memoised
         _write_cache(text_key, verdict)
     _probed[key] = verdict
     return verdict
@@ -262,13 +292,23 @@ def select_variant(preferred: str | None = None) -> Backend:
 
     ``preferred`` (or ``PAVONINE_VARIANT``) forces a variant; a forced ``llvm_*`` variant without
     a usable LLVM still falls back to the scalar variant of the same colour mode, with a warning.
+    Raises :class:`RendererUnavailable` when Dr.Jit cannot load at all (no variant can run).
     """
-    global _selected
+    global _selected, _drjit_error, _unavailable
     wanted = preferred or os.environ.get("PAVONINE_VARIANT") or FAST_VARIANT
     if _selected is not None and (_selected.variant == wanted or preferred is None):
         return _selected
 
+    if _unavailable is not None:  # once per process: the system does not change under it
+        raise RendererUnavailable(_unavailable)
+    for module in ("drjit", "mitsuba"):  # not installed (no [render] extra): as importing says
+        if importlib.util.find_spec(module) is None:
+            raise ModuleNotFoundError(f"No module named {module!r}", name=module)
+    _drjit_error = None
     lib, why = usable_libllvm() if wanted.startswith("llvm_") else (find_libllvm(), "")
+    if _drjit_error is not None:
+        _unavailable = _drjit_error
+        raise RendererUnavailable(_unavailable)
     if wanted.startswith("llvm_") and lib is None:
         fallback = (
             "scalar_" + wanted.split("_", 2)[-1] if wanted.count("_") >= 2 else FALLBACK_VARIANT
@@ -285,8 +325,12 @@ def select_variant(preferred: str | None = None) -> Backend:
     if lib is not None:
         os.environ["DRJIT_LIBLLVM_PATH"] = lib[0]
 
-    import drjit as dr
-    import mitsuba as mi
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except Exception as exc:  # a missing system library: ImportError, or a NameError hiding it
+        _unavailable = f"Dr.Jit cannot load: {first_import_error(exc)}"
+        raise RendererUnavailable(_unavailable) from None
 
     mi.set_variant(wanted)
     if _threads is not None:
@@ -298,3 +342,11 @@ def select_variant(preferred: str | None = None) -> Backend:
         reason=reason,
     )
     return _selected
+
+
+def first_import_error(error: BaseException) -> str:
+    """The first ImportError in ``error``'s chain (Dr.Jit hides it behind a NameError), one line."""
+    seen: BaseException | None = error
+    while seen is not None and not isinstance(seen, ImportError):
+        seen = seen.__context__
+    return " ".join(str(seen or error).split())

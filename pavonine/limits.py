@@ -31,7 +31,7 @@ from typing import Any
 from pavonine.pipeline.errors import InputError
 
 #: Pixels (width × height × depth) of the largest image read: 16384 × 16384, the largest map side
-#: ``pavonine validate`` accepts (``schemas/validation.py``, ``MAX_MAP_SIZE``) squared. A
+#: ``pavonine validate`` accepts (``schemas/map_validators.py``, ``MAX_MAP_SIZE``) squared. A
 #: single-channel map of this size is 1 GiB as float32.
 DEFAULT_MAX_PIXELS = 16384 * 16384
 #: Environment variable overriding :data:`DEFAULT_MAX_PIXELS` (a positive integer).

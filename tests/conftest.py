@@ -115,15 +115,18 @@ def pytest_collection_modifyitems(config, items):
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
     """When Dr.Jit cannot load, a test that imports Mitsuba anyway is skipped with the reason,
-    not failed (the import raised ModuleNotFoundError through ``_Unloadable``)."""
+    not failed (the import raised ModuleNotFoundError through ``_Unloadable``, or
+    ``select_variant`` raised :class:`~pavonine.backend.RendererUnavailable`)."""
+    from pavonine.backend import RendererUnavailable
+
     outcome = yield
     report = outcome.get_result()
     error = call.excinfo.value if call.excinfo is not None else None
-    if (
-        DRJIT_ERROR is not None
-        and isinstance(error, ModuleNotFoundError)
+    unloadable = isinstance(error, RendererUnavailable) or (
+        isinstance(error, ModuleNotFoundError)
         and (error.name or "").split(".")[0] in ("drjit", "mitsuba")
-    ):
+    )
+    if DRJIT_ERROR is not None and unloadable:
         report.outcome = "skipped"
         report.longrepr = (str(item.path), item.location[1] or 0, f"Skipped: {DRJIT_REASON}")
 

@@ -117,3 +117,30 @@ def test_user_libllvm_that_does_not_exist_falls_back_with_a_warning(tmp_path):
     variant, warned, status = _select_with(str(tmp_path / "libLLVM-19.so"), tmp_path / "cache")
     assert status == 0 and variant.startswith("scalar_spectral")
     assert "is not a file" in warned
+
+
+def test_drjit_that_cannot_load_is_not_a_verdict_on_the_libllvm(tmp_path, monkeypatch):
+    """When the probe cannot even import Dr.Jit (libatomic missing), nothing is cached against the
+    libLLVM (installing libatomic1 must take effect at once) and ``select_variant`` raises
+    :class:`RendererUnavailable` naming the library, once per process, without probing again."""
+    monkeypatch.setenv("PAVONINE_CACHE_DIR", str(tmp_path / "cache"))
+    lib = tmp_path / "libLLVM-19.so"
+    lib.write_text("v1")
+    monkeypatch.setenv("DRJIT_LIBLLVM_PATH", str(lib))
+    calls = []
+
+    def no_drjit(args, **kwargs):
+        calls.append(args)
+        message = "Dr.Jit cannot load: libatomic.so.1: cannot open shared object file\n"
+        return subprocess.CompletedProcess(args, backend.NO_DRJIT_STATUS, "", message)
+
+    monkeypatch.setattr(backend.subprocess, "run", no_drjit)
+    for name, value in (("_probed", {}), ("_selected", None), ("_unavailable", None)):
+        monkeypatch.setattr(backend, name, value)
+    ok, reason = backend.probe_libllvm(str(lib))
+    assert not ok and "libatomic.so.1" in reason
+    assert not backend.probe_cache_path().exists() and not backend._probed
+    for _ in range(2):
+        with pytest.raises(backend.RendererUnavailable, match=r"libatomic\.so\.1"):
+            backend.select_variant()
+    assert len(calls) == 2  # the probe above, then one in select_variant: remembered after it

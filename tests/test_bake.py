@@ -26,7 +26,8 @@ from pavonine.pipeline.bake.textures import (
     write_textures,
 )
 from pavonine.pipeline.cli import cli
-from pavonine.pipeline.convert.mesh import MeshData, grid_mesh
+from pavonine.pipeline.convert.mesh import MeshData
+from pavonine.pipeline.convert.vane import grid_mesh
 
 
 def flat_patch(n: int = 9, tilt_deg: float = 0.0) -> MeshData:

@@ -23,12 +23,9 @@ pytestmark = pytest.mark.convert
 
 from pavonine.pipeline.cli import cli
 from pavonine.pipeline.convert.atlas import st_overlap_fraction
-from pavonine.pipeline.convert.mesh import (
-    FeatherFrame,
-    edge_report,
-    prefilter,
-    triangle_areas,
-)
+from pavonine.pipeline.convert.surface import FeatherFrame, prefilter
+from pavonine.pipeline.convert.topology import edge_report
+from pavonine.pipeline.convert.vane import triangle_areas
 from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map
 from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
 from pavonine.schemas.plugin import PLUGIN_DIR

@@ -26,13 +26,9 @@ from pavonine.pipeline.convert.barbs import (
     barb_direction_field,
     sample_direction,
 )
-from pavonine.pipeline.convert.mesh import (
-    clip_to_silhouette,
-    edge_report,
-    grid_mesh,
-    refine,
-    triangle_areas,
-)
+from pavonine.pipeline.convert.refinement import refine
+from pavonine.pipeline.convert.topology import edge_report
+from pavonine.pipeline.convert.vane import clip_to_silhouette, grid_mesh, triangle_areas
 
 CLEAN = {"non_manifold_edges": 0, "misoriented_edges": 0, "non_manifold_vertices": 0}
 

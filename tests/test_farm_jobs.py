@@ -196,6 +196,7 @@ def test_turntable_orbits_the_bounds(tmp_path):
     assert not list(tmp_path.glob(".*"))  # nothing half-written left behind
 
 
+@pytest.mark.mitsuba  # `render` checks that Mitsuba loads before it reads its options
 def test_batch_input_errors_are_one_line(tmp_path):
     stage = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
     cases = [

@@ -390,6 +390,7 @@ def test_demo_seed_minus_1(tmp_path):
     assert not (tmp_path / "demo").exists()
 
 
+@pytest.mark.mitsuba  # `render` checks that Mitsuba loads before it reads its options
 def test_render_resolution_100000x100000(tmp_path):
     refused(
         ["render", str(SHIPPED_SCENE), "--resolution", "100000x100000", "-o", str(tmp_path / "r.exr")],
@@ -519,6 +520,9 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
         [sys.executable, "-m", "pavonine.pipeline.cli", "maps", "eye", "--size", "4096", "-o", str(out)],
         stderr=subprocess.PIPE,
         text=True,
+        # As from a terminal: a suite started in the background by a non-interactive shell (a CI
+        # runner's `cmd &`) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )  # fmt: skip
     # Interrupt once the command is painting (about 9 s of CPU at this size), whatever the load:
     # after 2 s of CPU time its imports (under 1 s) are done.

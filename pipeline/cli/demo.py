@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from pavonine.pipeline.cli.options import (
+    debian_hint,
     display_options,
     emit_json,
     json_option,
@@ -27,13 +28,18 @@ SCENE = "eye_feather_sun"
 
 JSON_SCHEMA = {
     "type": "object",
-    "required": ["maps", "asset", "scene", "exr", "png", "triangles", "seconds"],
+    "required": ["maps", "asset", "scene", "exr", "png", "render_skipped", "triangles", "seconds"],
     "properties": {
         "maps": {"type": "string", "description": "folder of the six maps and the contact sheet"},
         "asset": {"type": "string", "description": "root layer of the USD component asset"},
         "scene": {"type": "string", "description": "the scene referencing the asset"},
-        "exr": {"type": "string", "description": "scene-linear render"},
-        "png": {"type": "string", "description": "display render"},
+        "exr": {"type": ["string", "null"], "description": "scene-linear render (null: skipped)"},
+        "png": {"type": ["string", "null"], "description": "display render (null: skipped)"},
+        "render_skipped": {
+            "type": ["string", "null"],
+            "description": "why the render was skipped (the renderer cannot load: a missing "
+            "system library, named with its Debian package), or null when it ran",
+        },
         "triangles": {
             "type": "object",
             "description": "triangles per LOD",
@@ -96,6 +102,21 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
         copy.Export(str(tmp))
 
 
+def _render(
+    scene: Path, exr: Path, png: Path, *, spp: int, size: tuple[int, int], seed: int, display
+) -> None:
+    """Render ``scene`` to ``exr`` (scene-linear) and ``png`` (display)."""
+    from pavonine.render.api import render_stage
+    from pavonine.render.diagnostics import StageWarning
+    from pavonine.render.imageio import write_render
+
+    with warnings_to_log(StageWarning):
+        rendered = render_stage(
+            scene, spp=spp, resolution=size, seed=seed, progress=show_progress()
+        )
+    write_render(exr, rendered.rgb, rendered.metadata, png_path=png, display=display)
+
+
 @click.command()
 @output_option(folder=True, default=Path("out/demo"), help="Folder for everything the demo makes.")
 @click.option(
@@ -119,7 +140,7 @@ def write_scene(shipped_scene: Path, asset_root: Path, target: Path) -> None:
 @display_options
 @threads_option
 @json_option(JSON_SCHEMA)
-@requires("mitsuba", "drjit", "pymeshlab", "xatlas")
+@requires("mitsuba", "drjit", "pymeshlab", "xatlas", may_not_load=("mitsuba", "drjit"))
 @one_line_errors
 def demo(
     output: Path,
@@ -134,21 +155,26 @@ def demo(
 
     Writes DIR/maps/eye/ (six maps and a contact sheet), DIR/assets/eye_feather/ (the USD
     component asset), DIR/eye_feather_sun.usda (the scene) and DIR/eye_feather_sun.{exr,png}.
-    Works from an installed package: the recipe and scene are package data.
+    Works from an installed package: the recipe and scene are package data. When Mitsuba cannot
+    load (a missing system library: Debian's libatomic1), it makes everything but the render,
+    says why in one warning, and exits 0.
     """
     import time
 
-    from pavonine.backend import BackendWarning
+    from pavonine.backend import BackendWarning, RendererUnavailable, select_variant
     from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.paint import generate_maps, write_contact_sheet, write_maps
-    from pavonine.render.api import render_stage
-    from pavonine.render.diagnostics import StageWarning
-    from pavonine.render.imageio import write_render
     from pavonine.render.settings import parse_resolution
 
     width, height = parse_resolution(resolution)
+    skipped = None
     with warnings_to_log(BackendWarning):
-        spp, (width, height) = _fallback_size(spp, (width, height))
+        try:
+            select_variant()
+        except RendererUnavailable as exc:
+            skipped = f"{exc}{debian_hint(str(exc))}"
+        else:
+            spp, (width, height) = _fallback_size(spp, (width, height))
     recipe_text = _shipped("recipes", f"{FEATHER}.toml").read_text()
     shipped_scene = _shipped("scenes", f"{SCENE}.usda")
     seconds = {}
@@ -176,24 +202,26 @@ def demo(
     scene = output / f"{SCENE}.usda"
     write_scene(shipped_scene, result.root, scene)
 
-    log.info("[4/4] rendering %d×%d at %d spp", width, height, spp)
-    start = time.perf_counter()
-    with warnings_to_log(StageWarning):
-        rendered = render_stage(
-            scene, spp=spp, resolution=(width, height), seed=seed, progress=show_progress()
-        )
-    exr, png = output / f"{SCENE}.exr", output / f"{SCENE}.png"
-    write_render(exr, rendered.rgb, rendered.metadata, png_path=png, display=display)
-    seconds["render"] = time.perf_counter() - start
-    say(f"wrote {png}")
+    exr = png = None
+    if skipped is None:
+        log.info("[4/4] rendering %d×%d at %d spp", width, height, spp)
+        start = time.perf_counter()
+        exr, png = output / f"{SCENE}.exr", output / f"{SCENE}.png"
+        _render(scene, exr, png, spp=spp, size=(width, height), seed=seed, display=display)
+        seconds["render"] = time.perf_counter() - start
+        say(f"wrote {png}")
+    else:
+        log.warning("[4/4] skipped the render: %s", skipped)
+        say(f"wrote {scene} (not rendered: the renderer cannot load here)")
     emit_json(
         json_target,
         {
             "maps": str(maps_dir),
             "asset": str(result.root),
             "scene": str(scene),
-            "exr": str(exr),
-            "png": str(png),
+            "exr": None if exr is None else str(exr),
+            "png": None if png is None else str(png),
+            "render_skipped": skipped,
             "triangles": dict(result.triangles),
             "seconds": {k: round(v, 3) for k, v in seconds.items()},
         },

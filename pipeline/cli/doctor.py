@@ -9,7 +9,14 @@ import warnings
 import click
 
 from pavonine import __version__
-from pavonine.pipeline.cli.options import EXTRA_OF_MODULE, emit_json, importable, json_option, say
+from pavonine.pipeline.cli.options import (
+    EXTRA_OF_MODULE,
+    debian_hint,
+    emit_json,
+    importable,
+    json_option,
+    say,
+)
 
 #: (label, distribution, import name, extra or None for the base install)
 PACKAGES = (
@@ -47,7 +54,7 @@ JSON_SCHEMA = {
         },
         "variant": {
             "type": ["string", "null"],
-            "description": "Mitsuba variant (null: no [render])",
+            "description": "Mitsuba variant (null: no [render], or it cannot load: variant_reason)",
         },
         "variant_reason": {"type": ["string", "null"]},
         "libllvm": {"type": ["string", "null"], "description": "libLLVM Dr.Jit uses"},
@@ -87,11 +94,16 @@ def collect(variant: str | None = None) -> dict:
         "warnings": [],
     }
     if extras["render"]:
-        from pavonine.backend import select_variant
+        from pavonine.backend import RendererUnavailable, select_variant
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            backend = select_variant(variant)
+            try:
+                backend = select_variant(variant)
+            except RendererUnavailable as exc:  # installed, but a system library is missing
+                reason = f"{exc}{debian_hint(str(exc))}"
+                info.update(variant_reason=reason, warnings=[reason])
+                return info
         info.update(
             variant=backend.variant,
             variant_reason=backend.reason,

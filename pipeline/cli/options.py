@@ -39,6 +39,7 @@ from typing import Any
 
 import click
 
+from pavonine.backend import first_import_error
 from pavonine.pipeline.cli.values import FiniteFloat
 from pavonine.pipeline.errors import InputError, atomic_path
 
@@ -104,12 +105,10 @@ def _pymeshlab_filters(module) -> None:
 LOAD_CHECKS: dict[str, Callable[[Any], None]] = {"pymeshlab": _pymeshlab_filters}
 
 
-def load_error(error: BaseException) -> str:
-    """The first ImportError in ``error``'s chain (Dr.Jit hides it behind a NameError), one line."""
-    seen = error
-    while seen is not None and not isinstance(seen, ImportError):
-        seen = seen.__context__
-    return " ".join(str(seen or error).split())
+def debian_hint(message: str) -> str:
+    """`` (Debian: apt-get install PACKAGE)`` for the system library ``message`` names, or ``""``."""
+    package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
+    return f" (Debian: apt-get install {package})" if package else ""
 
 
 class MissingSystemLibrary(click.ClickException):
@@ -118,10 +117,8 @@ class MissingSystemLibrary(click.ClickException):
     exit_code = 2
 
     def __init__(self, command: str, module: str, error: BaseException):
-        message = load_error(error)
-        package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
-        hint = f" (Debian: apt-get install {package})" if package else ""
-        super().__init__(f"{command}: {module} cannot load: {message}{hint}")
+        message = first_import_error(error)
+        super().__init__(f"{command}: {module} cannot load: {message}{debian_hint(message)}")
 
 
 def importable(module: str) -> bool:
@@ -132,9 +129,11 @@ def importable(module: str) -> bool:
         return False
 
 
-def requires(*modules: str) -> Callable[[F], F]:
+def requires(*modules: str, may_not_load: tuple[str, ...] = ()) -> Callable[[F], F]:
     """Check before the command runs (so it writes nothing) that ``modules`` are installed and
-    load (a wheel can lack a system library, such as pymeshlab's libGL)."""
+    load (a wheel can lack a system library, such as pymeshlab's libGL). Modules in
+    ``may_not_load`` must be installed, but the command handles their failing to load itself
+    (``pavonine demo`` converts the feather and skips the render without Dr.Jit's libatomic)."""
 
     def decorate(func: F) -> F:
         @functools.wraps(func)
@@ -143,6 +142,8 @@ def requires(*modules: str) -> Callable[[F], F]:
             for module in modules:
                 if not importable(module):
                     raise MissingExtra(command, module)
+                if module in may_not_load:
+                    continue
                 try:
                     loaded = importlib.import_module(module)
                     LOAD_CHECKS.get(module, lambda m: None)(loaded)

@@ -33,15 +33,10 @@ from pavonine.pipeline.convert.asset import (
     staging_folder,
     write_asset,
 )
-from pavonine.pipeline.convert.mesh import (
-    RACHIS_SHARE,
-    FeatherFrame,
-    MeshData,
-    RachisSpec,
-    build_base,
-    build_lod,
-)
+from pavonine.pipeline.convert.mesh import RACHIS_SHARE, MeshData, build_base, build_lod
+from pavonine.pipeline.convert.rachis import RachisSpec
 from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
+from pavonine.pipeline.convert.surface import FeatherFrame
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.faults import checkpoint
 from pavonine.pipeline.maps.io import DataMap, read_data_map

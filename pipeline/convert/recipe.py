@@ -146,7 +146,7 @@ def _number(path: Path, key: str, value: Any, *, positive: bool = True, integer=
 #: (10 m) the displacement streaks drown in float32 rounding of the positions.
 LENGTH_RANGE_CM = (0.1, 1000.0)
 #: Upper bounds of the other lengths as a multiple of ``length_cm``. The base surface of
-#: ``feather_mesh.FeatherFrame`` (bend and cup sagittas, calamus below the vane) degenerates into a
+#: ``surface.FeatherFrame`` (bend and cup sagittas, calamus below the vane) degenerates into a
 #: sliver that the atlas stage segfaults or hangs on far beyond them (``bend_cm``, ``cup_cm`` or
 #: ``calamus_cm = 1e6``); a feather whose shaft or barb streaks are a tenth of its length is
 #: already no feather.

@@ -1,0 +1,43 @@
+"""Topology of a triangle mesh: the manifold and orientation check every LOD must pass."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+
+def edge_report(faces: np.ndarray, n_vertices: int) -> dict[str, int]:
+    """Topology check: non-manifold edges (> 2 faces), inconsistently oriented edges and
+    non-manifold vertices (a vertex whose faces form more than one fan)."""
+    faces = np.asarray(faces, dtype=np.int64)
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    lo, hi = directed.min(axis=1), directed.max(axis=1)
+    key = lo * n_vertices + hi
+    _, counts = np.unique(key, return_counts=True)
+    directed_key = directed[:, 0] * n_vertices + directed[:, 1]
+    _, dcounts = np.unique(directed_key, return_counts=True)
+    # Fans: faces around a vertex connected through shared edges incident to the vertex.
+    corner_v = faces.ravel()
+    nxt = faces[:, [1, 2, 0]].ravel()
+    prv = faces[:, [2, 0, 1]].ravel()
+    # Each corner links (v, nxt) and (v, prv) "spokes"; corners sharing a spoke are linked.
+    spoke_a = corner_v * n_vertices + nxt
+    spoke_b = corner_v * n_vertices + prv
+    spokes = np.concatenate([spoke_a, spoke_b])
+    corners = np.concatenate([np.arange(len(corner_v)), np.arange(len(corner_v))])
+    order = np.argsort(spokes, kind="stable")
+    s_sorted, c_sorted = spokes[order], corners[order]
+    same = s_sorted[1:] == s_sorted[:-1]
+    links = (c_sorted[:-1][same], c_sorted[1:][same])
+    n_corners = len(corner_v)
+    graph = coo_matrix((np.ones(len(links[0])), links), shape=(n_corners, n_corners))
+    _, labels = connected_components(graph, directed=False)
+    fans_per_vertex = np.bincount(
+        np.unique(np.column_stack([corner_v, labels]), axis=0)[:, 0], minlength=n_vertices
+    )
+    return {
+        "non_manifold_edges": int(np.sum(counts > 2)),
+        "misoriented_edges": int(np.sum(dcounts > 1)),
+        "non_manifold_vertices": int(np.sum(fans_per_vertex > 1)),
+    }
