@@ -3,10 +3,18 @@
 import importlib.abc
 import importlib.util
 import os
+import signal
 import subprocess
 import sys
 
 import pytest
+
+# Ctrl-C tests send SIGINT to child processes. A suite started in the background by a
+# non-interactive shell (a CI runner's `cmd &`) inherits SIGINT ignored, and an ignored signal
+# stays ignored across exec, so the children would never see it. A handled one is reset to the
+# default on exec: handle it here, as an interactive session does.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _drjit_load_error() -> str | None:

@@ -520,9 +520,6 @@ def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
         [sys.executable, "-m", "pavonine.pipeline.cli", "maps", "eye", "--size", "4096", "-o", str(out)],
         stderr=subprocess.PIPE,
         text=True,
-        # As from a terminal: a suite started in the background by a non-interactive shell (a CI
-        # runner's `cmd &`) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt.
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )  # fmt: skip
     # Interrupt once the command is painting (about 9 s of CPU at this size), whatever the load:
     # after 2 s of CPU time its imports (under 1 s) are done.
