@@ -11,7 +11,7 @@ command without its Ctrl-C handling for that long (a ``KeyboardInterrupt`` trace
 So ``import pavonine`` calls :func:`install`: if ``pxr`` is already imported it registers at
 once; otherwise it puts a finder first on ``sys.meta_path`` that registers the plugin right after
 the ``pxr`` package itself is executed, before any ``pxr`` submodule (``Usd``, ``Sdf``...) can
-exist, then removes itself. Every stage and registry is made through ``pxr.Usd``, which imports
+exist, and stays to load each ``pxr`` submodule with Ctrl-C held (below). Every stage and registry is made through ``pxr.Usd``, which imports
 ``pxr`` first, so the registration still precedes them.
 
 While a ``pxr`` module loads (in the main thread, with Python's default SIGINT handling), Ctrl-C
