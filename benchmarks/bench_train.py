@@ -10,7 +10,12 @@ timed render (same resolution, same samples per pass), since the kernel depends 
 peak RSS and the ratios (targets: memory <= 1.5x, time <= 3x the single feather), plus the
 triangles the train would hold as plain meshes, to show what instancing saves.
 
-Usage: python benchmarks/bench_train.py [--resolution 1024x768] [--spp 64]
+``--profile`` splits each timed render, from Dr.Jit's kernel history, into kernel execution,
+code generation, LLVM compilation and the rest (wall seconds): the rest is mostly tracing the
+path tracer into Dr.Jit's IR, once per pass. It also prints the largest kernel's IR operation
+count. The history keeps every kernel's IR, so peak RSS under ``--profile`` reads high.
+
+Usage: python benchmarks/bench_train.py [--resolution 1024x768] [--spp 64] [--profile]
 """
 
 from __future__ import annotations
@@ -28,27 +33,48 @@ from pathlib import Path
 SCENES = Path(__file__).parents[1] / "assets" / "scenes"
 
 
-def one(scene: str, resolution: tuple[int, int], spp: int) -> dict:
+def one(scene: str, resolution: tuple[int, int], spp: int, profile: bool = False) -> dict:
     """Run in the child: warm up, render, report wall and CPU seconds and peak RSS."""
     from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import StageWarning
     from pavonine.render.passes import samples_per_pass
 
+    if profile:
+        import drjit as dr
+
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StageWarning)
         warm = samples_per_pass(spp, resolution[0] * resolution[1], False)
         render_stage(scene, spp=warm, resolution=resolution, progress=False)
+        if profile:
+            dr.kernel_history()  # drop the warm-up's kernels
         start, cpu = time.perf_counter(), _cpu_seconds()
         result = render_stage(scene, spp=spp, resolution=resolution, progress=False)
         seconds, cpu = time.perf_counter() - start, _cpu_seconds() - cpu
     peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return {
+    report = {
         "seconds": seconds,
         "cpu_seconds": cpu,
         "peak_mib": peak_kib / 1024,
         "passes": result.metadata["passes"],
         "load": os.getloadavg()[0],
     }
+    if profile:
+        report.update(kernel_split(dr.kernel_history(), seconds))
+    return report
+
+
+def kernel_split(history: list[dict], seconds: float) -> dict:
+    """Wall seconds of a render spent executing, generating and compiling kernels, and the rest."""
+    total = {
+        key: sum((k.get(f"{key}_time") or 0.0) for k in history) / 1000.0
+        for key in ("execution", "codegen", "backend")
+    }
+    total["other"] = seconds - sum(total.values())
+    total["largest_kernel_ops"] = max((k.get("operation_count") or 0 for k in history), default=0)
+    total["kernels_compiled"] = sum(1 for k in history if k.get("cache_hit") == 0)
+    return total
 
 
 def _cpu_seconds() -> float:
@@ -94,18 +120,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", default="1024x768")
     parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--profile", action="store_true", help="split each render (see above)")
     parser.add_argument("--one", help=argparse.SUPPRESS)
     args = parser.parse_args()
     size = tuple(int(v) for v in args.resolution.split("x"))
     if args.one:
-        print(json.dumps(one(args.one, size, args.spp)))
+        print(json.dumps(one(args.one, size, args.spp, args.profile)))
         return
     results = {}
     for name in ("eye_feather_sun", "peacock_train"):
         scene = SCENES / f"{name}.usda"
         done = subprocess.run(
             [sys.executable, __file__, "--one", str(scene), "--resolution", args.resolution,
-             "--spp", str(args.spp)],
+             "--spp", str(args.spp)] + (["--profile"] if args.profile else []),
             capture_output=True, text=True, check=True,
         )  # fmt: skip
         results[name] = json.loads(done.stdout.strip().splitlines()[-1])
@@ -119,6 +146,12 @@ def main() -> None:
             f"{r['peak_mib']:6.0f} MiB, {r['triangles']:,} triangles held "
             f"({r['flat_triangles']:,} as plain meshes)"
         )
+        if args.profile:
+            print(
+                f"{'':<16} kernels {r['execution']:.1f} s, code generation {r['codegen']:.1f} s, "
+                f"LLVM {r['backend']:.1f} s ({r['kernels_compiled']} compiled), other (tracing) "
+                f"{r['other']:.1f} s; largest kernel {r['largest_kernel_ops']:,} IR operations"
+            )
     print(
         f"train / single feather: time {train['seconds'] / eye['seconds']:.2f}x "
         f"(CPU {train['cpu_seconds'] / eye['cpu_seconds']:.2f}x; target <= 3), "
