@@ -1,11 +1,17 @@
 """Pavonine: asset pipeline and spectral reference renderer for peacock-feather structural colour."""
 
+# In the `pavonine` command, Ctrl-C is one line and exit 130 from here on (pavonine.console);
+# any other program importing pavonine keeps its own SIGINT handling.
+from pavonine.console import arm_if_console as _arm_if_console
+
+_arm_if_console()
+
 __version__ = "0.1.0"
 
 # Register the USD schema plugin (PavonineFeatherAPI) before any stage or schema registry exists:
 # USD ignores schemas registered afterwards. Now if pxr is already imported, else as soon as it is
 # (pavonine.usd_import), so that `import pavonine` does not load USD itself.
-from pavonine.schemas.plugin import register as _register_usd_plugin
-from pavonine.usd_import import install as _install_usd_import
+from pavonine.schemas.plugin import register as _register_usd_plugin  # noqa: E402 (after arming)
+from pavonine.usd_import import install as _install_usd_import  # noqa: E402
 
 _install_usd_import(_register_usd_plugin)

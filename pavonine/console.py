@@ -11,8 +11,10 @@ traceback. Python's own start-up (``site`` and ``.pth`` files) precedes any Pavo
 
 from __future__ import annotations
 
+# The C module behind ``signal``: already loaded when Python starts, where ``signal`` itself
+# builds its enums first (measured: a Ctrl-C landed inside that import, before anything was armed).
+import _signal as signal
 import os
-import signal
 import sys
 
 #: Exit status of a command interrupted by Ctrl-C (128 + SIGINT, as shells report it).
@@ -32,9 +34,22 @@ def _interrupted(*_: object) -> None:
     os._exit(EXIT_INTERRUPTED)
 
 
+def arm_if_console() -> None:
+    """In the ``pavonine`` console script only (its ``__main__`` is the script named by
+    ``sys.argv[0]``), end the process on Ctrl-C as :func:`main` does, from the first line of
+    ``import pavonine`` on, before :func:`main` is reached. Other programs are left alone."""
+    script = getattr(sys.modules.get("__main__"), "__file__", None)
+    if not sys.argv or script != sys.argv[0] or os.path.basename(script) != "pavonine":
+        return
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _interrupted)
+
+
 def main() -> None:
     """Run ``pavonine`` with ``sys.argv``."""
     try:
+        if signal.getsignal(signal.SIGINT) is _interrupted:  # armed by import pavonine
+            signal.signal(signal.SIGINT, signal.default_int_handler)
         from pavonine.pipeline.cli import main as run
 
         run()
