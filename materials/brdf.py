@@ -221,20 +221,12 @@ def _melanin_coefficients(color: tuple[float, float, float]) -> np.ndarray:
     """Mitsuba's upsampling coefficients of ``color``; without Mitsuba (not installed, or unable
     to load a system library), the same fit in NumPy (:mod:`pavonine.materials.upsampling`,
     checked against Mitsuba's in the tests)."""
-    import importlib.util
-
     from pavonine.backend import select_variant
     from pavonine.materials.upsampling import fit_sigmoid_polynomial
 
     try:
-        installed = importlib.util.find_spec("mitsuba") is not None
-    except (ImportError, ValueError):
-        installed = False
-    if not installed:
-        return fit_sigmoid_polynomial(color)
-    try:
         select_variant()
-    except ImportError:  # RendererUnavailable: Dr.Jit is installed but cannot load
+    except ImportError:  # not installed (ModuleNotFoundError), or cannot load (RendererUnavailable)
         return fit_sigmoid_polynomial(color)
     import mitsuba as mi
 
