@@ -15,8 +15,8 @@ with the choices :func:`~pavonine.pipeline.convert.mesh.decimate_mesh` asks of p
   VCG's ``TriEdgeCollapseQuadric`` weighs it.
 
 VCG collapses one edge at a time from a heap. Here collapses are applied in rounds, vectorised:
-every vertex picks its cheapest valid collapse, and the picks that are cheapest within two edges
-of each other are applied together (their neighbourhoods are disjoint, so each check made
+every vertex picks its cheapest valid collapse, and picks at least three edges apart, the
+cheaper first, are applied together (their neighbourhoods are disjoint, so each check made
 before the round still holds after it).
 """
 
@@ -61,18 +61,26 @@ def boundary_vertices(faces: np.ndarray, n: int) -> np.ndarray:
     return mask
 
 
-def _signed_st_area(st: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    e1, e2 = st[tri[:, 1]] - st[tri[:, 0]], st[tri[:, 2]] - st[tri[:, 0]]
-    return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+def _cross(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (k, 3) arrays (``np.cross`` without its overhead)."""
+    return np.column_stack(
+        [
+            e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
+            e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+            e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0],
+        ]
+    )
 
 
-def _quality(points: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Normals (unnormalised) and quality ``4√3·area / Σ edge²`` of triangles ``tri``."""
-    a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
-    normal = np.cross(b - a, c - a)
-    edges = np.sum((b - a) ** 2 + (c - b) ** 2 + (a - c) ** 2, axis=1)
-    quality = 2.0 * math.sqrt(3.0) * np.linalg.norm(normal, axis=1) / np.maximum(edges, 1e-300)
-    return normal, quality
+def _fans(
+    points: np.ndarray, st: np.ndarray, apex: np.ndarray, a: np.ndarray, b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Triangles ``(apex, a, b)``: unnormalised normals, twice their signed ``st`` area, and the
+    squared lengths of their two edges at ``apex``."""
+    e1, e2 = points[a] - points[apex], points[b] - points[apex]
+    s1, s2 = st[a] - st[apex], st[b] - st[apex]
+    st_area = s1[:, 0] * s2[:, 1] - s1[:, 1] * s2[:, 0]
+    return _cross(e1, e2), st_area, np.einsum("ij,ij->i", e1, e1) + np.einsum("ij,ij->i", e2, e2)
 
 
 def collapse_costs(
@@ -107,19 +115,23 @@ def collapse_costs(
     pair = np.repeat(np.arange(len(u)), reps)
     offset = np.arange(len(pair)) - np.repeat(np.cumsum(reps) - reps, reps)
     corner = order[start[u][pair] + offset]
-    face = corner // 3
+    face, k = np.divmod(corner, 3)
+    a = corner_vertex[3 * face + (k + 1) % 3]  # the triangle is (u, a, b), counter-clockwise
+    b = corner_vertex[3 * face + (k + 2) % 3]
     target = v[pair]
-    stays = ~np.any(faces[face] == target[:, None], axis=1)  # the two triangles on uv vanish
-    pair, corner, face, target = pair[stays], corner[stays], face[stays], target[stays]
-    new = faces[face]
-    new[np.arange(len(new)), corner % 3] = target
-    face_normal, _ = _quality(points, faces)
-    old_normal = face_normal[face]
-    new_normal, quality = _quality(points, new)
-    cos_turn = np.sum(old_normal * new_normal, axis=1) / np.maximum(
-        np.linalg.norm(old_normal, axis=1) * np.linalg.norm(new_normal, axis=1), 1e-300
+    stays = (a != target) & (b != target)  # the two triangles on the edge uv vanish
+    pair, face, a, b, target = (x[stays] for x in (pair, face, a, b, target))
+    face_normal, face_st, _ = _fans(points, st, faces[:, 0], faces[:, 1], faces[:, 2])
+    face_length = np.sqrt(np.einsum("ij,ij->i", face_normal, face_normal))
+    old_normal, old_st, old_length = face_normal[face], face_st[face], face_length[face]
+    new_normal, new_st, spokes = _fans(points, st, target, a, b)
+    new_length = np.sqrt(np.einsum("ij,ij->i", new_normal, new_normal))
+    rim = points[b] - points[a]
+    perimeter2 = spokes + np.einsum("ij,ij->i", rim, rim)
+    quality = 2.0 * math.sqrt(3.0) * new_length / np.maximum(perimeter2, 1e-300)
+    cos_turn = np.einsum("ij,ij->i", old_normal, new_normal) / np.maximum(
+        old_length * new_length, 1e-300
     )
-    old_st, new_st = _signed_st_area(st, faces)[face], _signed_st_area(st, new)
     bad = (
         (cos_turn < math.cos(math.radians(NORMAL_LIMIT_DEG)))
         | (old_st * new_st <= 0.0)
@@ -127,7 +139,9 @@ def collapse_costs(
     )
     invalid = np.bincount(pair, bad, minlength=len(u)) > 0
     worst = np.full(len(u), QUALITY_THRESHOLD)
-    np.minimum.at(worst, pair, quality)
+    if len(pair):
+        first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])  # pair is sorted
+        worst[pair[first]] = np.minimum(np.minimum.reduceat(quality, first), QUALITY_THRESHOLD)
     homogeneous = np.column_stack([points[v], np.ones(len(v))])
     error = np.einsum("ei,eij,ej->e", homogeneous, quadric[u] + quadric[v], homogeneous)
     priority = np.maximum(error, floor) / np.maximum(worst, 1e-12)
@@ -137,14 +151,14 @@ def collapse_costs(
 def independent_collapses(
     u: np.ndarray, v: np.ndarray, priority: np.ndarray, faces: np.ndarray, n: int, budget: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Each vertex's cheapest collapse, then greedily in order of cost those at least three
-    edges from every cheaper one kept (so no two kept collapses touch a common triangle or
-    neighbour): at most ``budget``, among the cheapest ``3·budget`` vertices, so that a round
-    follows the global order of costs."""
+    """Each vertex's cheapest collapse; of those, in passes, the ones cheapest within two
+    edges (then those and their two rings leave, and the next pass picks among the rest), so
+    that no two kept collapses touch a common triangle or neighbour; the cheapest ``budget``
+    of the picks."""
     best = np.lexsort((priority, u))
     first = np.r_[True, u[best][1:] != u[best][:-1]]
     bu, bv, bp = u[best][first], v[best][first], priority[best][first]
-    by_cost = np.argsort(bp, kind="stable")[: 3 * budget]
+    by_cost = np.argsort(bp, kind="stable")
     bu, bv = bu[by_cost], bv[by_cost]
     none = np.iinfo(np.int64).max
     rank = np.full(n, none)
@@ -176,8 +190,8 @@ def independent_collapses(
     return bu[kept], bv[kept]
 
 
-#: Rounds of picking within one batch of collapses (more: more collapses per batch).
-_SELECTION_PASSES = 6
+#: Passes of picking within one round of collapses (more: more collapses per round).
+_SELECTION_PASSES = 24
 
 
 def collapse_to(points: np.ndarray, faces: np.ndarray, st: np.ndarray, target: int) -> np.ndarray:
