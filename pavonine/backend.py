@@ -128,16 +128,14 @@ def find_libllvm(min_major: int = MIN_LLVM_MAJOR) -> tuple[str, int] | None:
 #: Exit status of the probe when Dr.Jit itself cannot load: a verdict on the system, not on the
 #: libLLVM, so it is not cached (installing the library must take effect at once).
 NO_DRJIT_STATUS = 3
-#: What the probe runs: a kernel using the min/max that LLVM < 16 cannot select (``fminimum``).
-_PROBE_CODE = """
+#: What the probe runs after :func:`first_import_error`'s definition (see :func:`_probe_code`): a
+#: kernel using the min/max that LLVM < 16 cannot select (``fminimum``).
+_PROBE_BODY = """
 import sys
 try:
     import drjit as dr
 except Exception as exc:  # Dr.Jit hides the ImportError of a missing .so behind a NameError
-    cause = exc
-    while cause is not None and not isinstance(cause, ImportError):
-        cause = cause.__context__
-    print("Dr.Jit cannot load:", " ".join(str(cause or exc).split()), file=sys.stderr)
+    print("Dr.Jit cannot load:", first_import_error(exc), file=sys.stderr)
     raise SystemExit(NO_DRJIT_STATUS)
 if not dr.has_backend(dr.JitBackend.LLVM):
     raise SystemExit("Dr.Jit could not initialise its LLVM back-end with this library")
@@ -151,8 +149,6 @@ print("ok")
 #: Seconds a probe may take (compiling one kernel takes well under one).
 PROBE_TIMEOUT = 60.0
 _probed: dict[tuple, tuple[bool, str]] = {}
-#: Why Dr.Jit could not load in the last probe (None: it loaded, or no probe ran).
-_drjit_error: str | None = None
 
 
 def probe_cache_path() -> Path:
@@ -199,12 +195,21 @@ def _write_cache(key: str, verdict: tuple[bool, str]) -> None:
         return
 
 
+def _probe_code() -> str:
+    """The probe's program: this module's :func:`first_import_error` (one implementation; the
+    probe runs in a bare interpreter that need not import Pavonine), then :data:`_PROBE_BODY`."""
+    import inspect
+
+    return inspect.getsource(first_import_error) + _PROBE_BODY
+
+
 def _run_probe(path: str) -> tuple[bool, str]:
-    global _drjit_error
+    """The verdict of one probe subprocess on the libLLVM at ``path``; raises
+    :class:`RendererUnavailable` when the subprocess could not even import Dr.Jit."""
     env = {**os.environ, "DRJIT_LIBLLVM_PATH": path}
     try:
         done = subprocess.run(
-            [sys.executable, "-c", _PROBE_CODE],
+            [sys.executable, "-c", _probe_code()],
             env=env,
             capture_output=True,
             text=True,
@@ -218,8 +223,7 @@ def _run_probe(path: str) -> tuple[bool, str]:
     if done.returncode == 0 and done.stdout.strip().endswith("ok"):
         return True, "ok"
     if done.returncode == NO_DRJIT_STATUS and "Dr.Jit cannot load" in done.stderr:
-        _drjit_error = done.stderr.strip().splitlines()[-1]
-        return False, _drjit_error
+        raise RendererUnavailable(done.stderr.strip().splitlines()[-1])
     lines = [line.strip() for line in (done.stderr + done.stdout).splitlines() if line.strip()]
     detail = next((line for line in lines if "LLVM ERROR" in line or "Unable to load" in line), "")
     detail = detail or (lines[-1] if lines else "")
@@ -237,9 +241,9 @@ def probe_libllvm(path: str) -> tuple[bool, str]:
     Runs in a subprocess, because an unusable library aborts the process that loads it. The
     verdict is cached in memory and in :func:`probe_cache_path` per (path, size, mtime, Dr.Jit
     version): a replaced library is probed again. When Dr.Jit itself cannot load, the verdict is
-    about the system, not the library: it is neither cached nor memoised.
+    about the system, not the library: :class:`RendererUnavailable` is raised, and nothing is
+    cached or memoised.
     """
-    global _drjit_error
     try:
         key = _probe_key(path)
     except OSError as exc:
@@ -256,10 +260,7 @@ def probe_libllvm(path: str) -> tuple[bool, str]:
     ):
         verdict = (cached[0], cached[1])
     else:
-        _drjit_error = None
-        verdict = _run_probe(path)
-        if _drjit_error is not None:
-            return verdict  # about the system, not this library: neither cached nor memoised
+        verdict = _run_probe(path)  # RendererUnavailable: about the system, not this library
         _write_cache(text_key, verdict)
     _probed[key] = verdict
     return verdict
@@ -270,7 +271,7 @@ def usable_libllvm(min_major: int = MIN_LLVM_MAJOR) -> tuple[tuple[str, int] | N
 
     A ``DRJIT_LIBLLVM_PATH`` the user set to an unusable library (missing, older than
     ``min_major`` by its name, or failing the probe) gives ``None``: Pavonine does not silently
-    use another one.
+    use another one. Raises :class:`RendererUnavailable` when Dr.Jit itself cannot load.
     """
     preset = os.environ.get("DRJIT_LIBLLVM_PATH")
     if preset and not os.path.isfile(preset):
@@ -294,7 +295,7 @@ def select_variant(preferred: str | None = None) -> Backend:
     a usable LLVM still falls back to the scalar variant of the same colour mode, with a warning.
     Raises :class:`RendererUnavailable` when Dr.Jit cannot load at all (no variant can run).
     """
-    global _selected, _drjit_error, _unavailable
+    global _selected, _unavailable
     wanted = preferred or os.environ.get("PAVONINE_VARIANT") or FAST_VARIANT
     if _selected is not None and (_selected.variant == wanted or preferred is None):
         return _selected
@@ -304,11 +305,11 @@ def select_variant(preferred: str | None = None) -> Backend:
     for module in ("drjit", "mitsuba"):  # not installed (no [render] extra): as importing says
         if importlib.util.find_spec(module) is None:
             raise ModuleNotFoundError(f"No module named {module!r}", name=module)
-    _drjit_error = None
-    lib, why = usable_libllvm() if wanted.startswith("llvm_") else (find_libllvm(), "")
-    if _drjit_error is not None:
-        _unavailable = _drjit_error
-        raise RendererUnavailable(_unavailable)
+    try:
+        lib, why = usable_libllvm() if wanted.startswith("llvm_") else (find_libllvm(), "")
+    except RendererUnavailable as exc:
+        _unavailable = str(exc)
+        raise
     if wanted.startswith("llvm_") and lib is None:
         fallback = (
             "scalar_" + wanted.split("_", 2)[-1] if wanted.count("_") >= 2 else FALLBACK_VARIANT

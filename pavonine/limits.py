@@ -60,17 +60,27 @@ def set_max_pixels(count: int | None) -> None:
     _override = count
 
 
-@contextlib.contextmanager
-def pixel_budget(count: int | None) -> Iterator[None]:
+class pixel_budget(contextlib.AbstractContextManager):
     """Use ``count`` as the pixel budget inside the ``with`` block (``None``: leave it as it is),
-    then restore the budget that was in force before, whether the block succeeded or raised."""
-    before = _override
-    if count is not None:
-        set_max_pixels(count)
-    try:
-        yield
-    finally:
-        set_max_pixels(before)
+    then restore the budget that was in force before, whether the block succeeded or raised.
+
+    A class, not a generator: a generator-based context manager that is entered and then
+    abandoned (its ``with`` never left, e.g. a click context that is never closed) runs its
+    ``finally`` whenever the garbage collector finds it, which would put back an old budget in
+    the middle of whatever command is running then. This one acts only in ``__exit__``.
+    """
+
+    def __init__(self, count: int | None) -> None:
+        self._count = count
+        self._before: int | None = None
+
+    def __enter__(self) -> None:
+        self._before = _override
+        if self._count is not None:
+            set_max_pixels(self._count)
+
+    def __exit__(self, *exc_info: object) -> None:
+        set_max_pixels(self._before)
 
 
 def max_pixels() -> int:

@@ -120,7 +120,8 @@ def test_user_libllvm_that_does_not_exist_falls_back_with_a_warning(tmp_path):
 
 
 def test_drjit_that_cannot_load_is_not_a_verdict_on_the_libllvm(tmp_path, monkeypatch):
-    """When the probe cannot even import Dr.Jit (libatomic missing), nothing is cached against the
+    """When the probe cannot even import Dr.Jit (libatomic missing), that is no verdict on the
+    library (``probe_libllvm`` raises :class:`RendererUnavailable`), nothing is cached against the
     libLLVM (installing libatomic1 must take effect at once) and ``select_variant`` raises
     :class:`RendererUnavailable` naming the library, once per process, without probing again."""
     monkeypatch.setenv("PAVONINE_CACHE_DIR", str(tmp_path / "cache"))
@@ -137,8 +138,8 @@ def test_drjit_that_cannot_load_is_not_a_verdict_on_the_libllvm(tmp_path, monkey
     monkeypatch.setattr(backend.subprocess, "run", no_drjit)
     for name, value in (("_probed", {}), ("_selected", None), ("_unavailable", None)):
         monkeypatch.setattr(backend, name, value)
-    ok, reason = backend.probe_libllvm(str(lib))
-    assert not ok and "libatomic.so.1" in reason
+    with pytest.raises(backend.RendererUnavailable, match=r"libatomic\.so\.1"):
+        backend.probe_libllvm(str(lib))
     assert not backend.probe_cache_path().exists() and not backend._probed
     for _ in range(2):
         with pytest.raises(backend.RendererUnavailable, match=r"libatomic\.so\.1"):

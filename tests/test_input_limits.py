@@ -330,6 +330,28 @@ def test_pixel_budget_is_reset_after_a_real_command_refused_by_it(tmp_path, monk
         assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
 
 
+def test_pixel_budget_survives_a_usage_error_and_the_garbage_collector(monkeypatch):
+    """``validate --max-pixels 5`` without a path is a usage error found after the option was
+    parsed: its budget must not outlive that command, and nothing it left behind may later put an
+    old budget back in the middle of another command (the garbage collector once did: a budget
+    set as a parameter callback, restored by an abandoned generator's ``finally`` at collection,
+    made ``validate --max-pixels 100`` miss its maps now and then in the full suite)."""
+    import gc
+
+    from click.testing import CliRunner
+
+    from pavonine.pipeline.cli import cli
+
+    monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
+    result = CliRunner().invoke(cli, ["validate", "--max-pixels", "5"])
+    assert result.exit_code == 2, result.output
+    assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+    with limits.pixel_budget(100):
+        gc.collect()
+        assert limits.max_pixels() == 100
+    assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+
+
 def test_map_header_declaring_far_more_pixels_than_it_holds(tmp_path):
     from pavonine.pipeline.maps.io import read_map
 

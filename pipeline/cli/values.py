@@ -13,6 +13,7 @@ Mitsuba's ``uint32``, and the ``--max-pixels`` budget of images read (``pavonine
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -66,27 +67,30 @@ def apply_pixel_budget(count: int | None) -> None:
     """Make ``count`` the pixel budget of images read for the running command only: the one way
     every command applies ``--max-pixels``. ``None`` (not given) leaves ``$PAVONINE_MAX_PIXELS``
     or the default. The budget before is restored when the command's click context closes, also
-    when the command fails, so commands run in-process (tests, other tools) never inherit it."""
+    when the command fails, so commands run in-process (tests, other tools) never inherit it.
+
+    Call it from the command's body (as :func:`max_pixels_option` and ``limit_options`` do), never
+    from a parameter callback: a usage error found after a callback ran leaves its context
+    unclosed, so the budget would outlive the command."""
     from pavonine.limits import pixel_budget
 
     click.get_current_context().with_resource(pixel_budget(count))
 
 
-def _apply_max_pixels(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
-    apply_pixel_budget(value)
-
-
 def max_pixels_option(func: F) -> F:
-    """``--max-pixels N`` (default ``$PAVONINE_MAX_PIXELS``): the pixel budget of images read."""
+    """``--max-pixels N`` (default ``$PAVONINE_MAX_PIXELS``): the pixel budget of images read,
+    in force while the command's body runs (the function gets no parameter for it)."""
     from pavonine.limits import DEFAULT_MAX_PIXELS, MAX_PIXELS_ENV
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, max_pixels: int | None, **kwargs: Any) -> Any:
+        apply_pixel_budget(max_pixels)
+        return func(*args, **kwargs)
 
     return click.option(
         "--max-pixels",
         type=click.IntRange(min=1),
-        expose_value=False,
-        is_eager=True,
-        callback=_apply_max_pixels,
         metavar="N",
         help=f"Pixel budget of every image read, checked from its header before decoding "
         f"[default: ${MAX_PIXELS_ENV}, else {DEFAULT_MAX_PIXELS:,}].",
-    )(func)
+    )(wrapper)
