@@ -351,3 +351,18 @@ def first_import_error(error: BaseException) -> str:
     while seen is not None and not isinstance(seen, ImportError):
         seen = seen.__context__
     return " ".join(str(seen or error).split())
+
+
+#: System library a wheel loads → the Debian package that has it (named in errors).
+DEBIAN_PACKAGE_OF_LIBRARY = {
+    "libGL.so.1": "libgl1",
+    "libgomp.so.1": "libgomp1",
+    "libatomic.so.1": "libatomic1",
+    "libOpenGL.so.0": "libopengl0",
+}
+
+
+def debian_hint(message: str) -> str:
+    """`` (Debian: apt-get install PACKAGE)`` for the system library ``message`` names, or ``""``."""
+    package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
+    return f" (Debian: apt-get install {package})" if package else ""

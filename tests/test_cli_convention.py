@@ -244,7 +244,8 @@ def test_every_reporting_command_has_json_with_a_schema(path):
     assert path in EXAMPLES, f"add an example invocation of {' '.join(path)} to EXAMPLES"
 
 
-#: Examples that build meshes (pymeshlab) and render (Mitsuba llvm) skip without those libraries.
+#: Examples that render (Mitsuba llvm) skip without its libraries; those that build meshes run
+#: with pymeshlab or, without its libraries, the NumPy fallback (the convert marker).
 NEEDS = {("convert",): ["convert"], ("demo",): ["convert", "render"], ("render",): ["render"]}
 NEEDS |= {("check-renders",): ["mitsuba"], ("baseline", "update"): ["mitsuba"]}
 NEEDS |= {("doctor",): ["mitsuba"]}

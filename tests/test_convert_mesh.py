@@ -8,11 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-pytest.importorskip(
-    "pymeshlab",
-    reason="pymeshlab cannot load (Debian: apt-get install libgl1)",
-    exc_type=ImportError,
-)
+pytest.importorskip("xatlas", reason="needs the [convert] extra", exc_type=ImportError)
 pytestmark = pytest.mark.convert
 
 from pavonine.pipeline.convert.atlas import (

@@ -38,7 +38,7 @@ def recipe(name: str, maps: Path, version: str, high: int) -> str:
 def feathers(tmp_path_factory) -> dict:
     """Recipes of an old (1.0) and a new (2.0) version of one feather, and what each converts
     to on its own (the versions a reader may see)."""
-    pytest.importorskip("pymeshlab", reason="pymeshlab cannot load", exc_type=ImportError)
+    pytest.importorskip("xatlas", reason="needs the [convert] extra", exc_type=ImportError)
     from pavonine.pipeline.maps.paint import generate_maps, write_maps
 
     work = tmp_path_factory.mktemp("feathers")

@@ -196,6 +196,7 @@ def test_catmull_clark_level_one_follows_catmull_and_clark_1978(monkeypatch):
     assert len(surface.topology.points) == 8 + 12 + 6 and surface.topology.face_count == 24
 
 
+@pytest.mark.pymeshlab
 def test_loop_matches_pymeshlab_on_a_closed_octahedron():
     import pymeshlab
 

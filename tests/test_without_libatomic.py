@@ -5,7 +5,8 @@ with that reason instead of failing.
 The library is made genuinely unloadable, not mocked: ``unshare -m`` gives the child a private
 mount namespace in which ``/dev/null`` is bind-mounted over ``libatomic.so.1`` (the dynamic
 loader then refuses it: "file too short"). That needs root and a kernel that allows mount
-namespaces; elsewhere these tests skip, saying which is missing.
+namespaces; elsewhere these tests skip, saying which is missing. ``test_without_libgl.py``
+hides pymeshlab's libraries the same way.
 """
 
 import glob
@@ -21,35 +22,42 @@ import pytest
 pytestmark = pytest.mark.namespaces
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Runs "$@" with /dev/null over $LIB, in a private mount namespace (nothing leaks out of it).
-HIDE = 'mount --make-rprivate / && mount --bind /dev/null "$LIB" && exec "$@"'
+#: Runs "$@" with /dev/null over every file in $LIBS, in a private mount namespace (nothing
+#: leaks out of it).
+HIDE = 'mount --make-rprivate / && for lib in $LIBS; do mount --bind /dev/null "$lib"; done && exec "$@"'
 
 
-def _libatomic() -> str:
-    """The real file behind libatomic.so.1, or a skip saying why the test cannot hide it."""
+def hideable(*sonames: str) -> list[str]:
+    """The real files behind ``sonames`` (as the loader finds them), or a skip saying why the
+    test cannot hide them."""
     if os.geteuid() != 0:
         pytest.skip("hiding a system library needs root (a mount namespace with a bind mount)")
     if shutil.which("unshare") is None or shutil.which("mount") is None:
         pytest.skip("needs unshare(1) and mount(8) (util-linux)")
-    found = sorted(glob.glob("/usr/lib/*/libatomic.so.1") + glob.glob("/lib/*/libatomic.so.1"))
-    if not found:
-        pytest.skip("libatomic.so.1 is not installed: nothing to hide (Dr.Jit cannot load anyway)")
-    lib = os.path.realpath(found[0])
+    libs = []
+    for soname in sonames:
+        found = sorted(glob.glob(f"/usr/lib/*/{soname}") + glob.glob(f"/lib/*/{soname}"))
+        if not found:
+            pytest.skip(f"{soname} is not installed: nothing to hide")
+        libs.append(os.path.realpath(found[0]))
+    libs = sorted(set(libs))
     check = subprocess.run(
         ["unshare", "-m", "sh", "-c", HIDE, "sh", "true"],
-        env={**os.environ, "LIB": lib},
+        env={**os.environ, "LIBS": " ".join(libs)},
         capture_output=True,
         text=True,
         check=False,
     )
     if check.returncode != 0:
         pytest.skip(f"this kernel or container refuses mount namespaces: {check.stderr.strip()}")
-    return lib
+    return libs
 
 
-def run_hidden(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
-    """``args`` in a mount namespace where libatomic cannot load (caches kept inside ``cwd``)."""
-    env = {**os.environ, "LIB": _libatomic(), "PAVONINE_CACHE_DIR": str(cwd / "cache")}
+def run_hiding(
+    libs: list[str], *args: str, cwd: Path, timeout: float = 600
+) -> subprocess.CompletedProcess:
+    """``args`` in a mount namespace where ``libs`` cannot load (caches kept inside ``cwd``)."""
+    env = {**os.environ, "LIBS": " ".join(libs), "PAVONINE_CACHE_DIR": str(cwd / "cache")}
     env.pop("DRJIT_LIBLLVM_PATH", None)  # as in a fresh shell
     return subprocess.run(
         ["unshare", "-m", "sh", "-c", HIDE, "sh", *args],
@@ -60,6 +68,11 @@ def run_hidden(*args: str, cwd: Path, timeout: float = 600) -> subprocess.Comple
         timeout=timeout,
         check=False,
     )
+
+
+def run_hidden(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    """``args`` in a mount namespace where libatomic cannot load."""
+    return run_hiding(hideable("libatomic.so.1"), *args, cwd=cwd, timeout=timeout)
 
 
 @pytest.mark.convert

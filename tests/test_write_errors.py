@@ -23,7 +23,7 @@ READ_ONLY = "Read-only file system"
 
 @pytest.fixture(scope="module")
 def tiny_recipe(tmp_path_factory) -> Path:
-    pytest.importorskip("pymeshlab", reason="pymeshlab cannot load", exc_type=ImportError)
+    pytest.importorskip("xatlas", reason="needs the [convert] extra", exc_type=ImportError)
     from pavonine.pipeline.maps.paint import generate_maps, write_maps
 
     work = tmp_path_factory.mktemp("recipe")

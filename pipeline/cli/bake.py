@@ -56,7 +56,7 @@ JSON_SCHEMA = {
     help="Texels along each side of the baked textures.",
 )
 @json_option(JSON_SCHEMA)
-@requires("pymeshlab", "MaterialX")
+@requires("MaterialX")
 @max_pixels_option
 @one_line_errors
 def bake(asset: Path, resolution: int, json_target: str | None) -> None:

@@ -95,6 +95,8 @@ def convert(
 
     Each asset is written atomically; a failing recipe does not stop the others, and the
     summary names every failure. Exit status: 0 all converted, 2 bad input, 1 internal error.
+    Meshes are cleaned and decimated with pymeshlab, or with NumPy when pymeshlab cannot load
+    its system libraries (one warning); $PAVONINE_MESHING (auto, numpy, pymeshlab) chooses.
     Recipe reference: docs/pipeline.md.
     """
     from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn

@@ -60,6 +60,12 @@ JSON_SCHEMA = {
         "libllvm": {"type": ["string", "null"], "description": "libLLVM Dr.Jit uses"},
         "llvm_major": {"type": ["integer", "null"]},
         "ocio_config": {"type": "string", "description": "default OCIO config ($OCIO or pinned)"},
+        "meshing": {
+            "type": ["string", "null"],
+            "description": "library convert meshes with: pymeshlab, or numpy when pymeshlab "
+            "cannot load (meshing_reason says why); null: no [convert]",
+        },
+        "meshing_reason": {"type": ["string", "null"]},
         "warnings": {"type": "array", "items": {"type": "string"}},
     },
 }
@@ -91,8 +97,19 @@ def collect(variant: str | None = None) -> dict:
         "libllvm": None,
         "llvm_major": None,
         "ocio_config": default_config(),
+        "meshing": None,
+        "meshing_reason": None,
         "warnings": [],
     }
+    if extras["convert"]:
+        from pavonine.pipeline.convert.meshing import meshing_backend
+        from pavonine.pipeline.errors import InputError
+
+        try:
+            meshing = meshing_backend()
+            info.update(meshing=meshing.name, meshing_reason=meshing.reason)
+        except (ImportError, InputError) as exc:  # PAVONINE_MESHING: pymeshlab but it cannot
+            info.update(meshing_reason=str(exc))  # load, or an unknown value
     if extras["render"]:
         from pavonine.backend import RendererUnavailable, select_variant
 
@@ -135,6 +152,9 @@ def doctor(variant: str | None, json_target: str | None) -> None:
     say(f"  {'variant':<12} {info['variant']} ({info['variant_reason']})")
     say(f"  {'libLLVM':<12} {llvm}")
     say(f"  {'OCIO config':<12} {info['ocio_config']}")
+    if info["meshing"] or info["meshing_reason"]:
+        reason = f" ({info['meshing_reason']})" if info["meshing_reason"] else ""
+        say(f"  {'meshing':<12} {info['meshing']}{reason}")
     for message in info["warnings"]:
         click.echo(f"warning: {message}", err=True)
     if any(info["packages"][label] is None for label, _, _, extra in PACKAGES if extra is None):

@@ -39,8 +39,9 @@ from typing import Any
 
 import click
 
-from pavonine.backend import first_import_error
+from pavonine.backend import debian_hint, first_import_error
 from pavonine.pipeline.cli.values import FiniteFloat
+from pavonine.pipeline.convert.meshing import check_filters, meshing_backend
 from pavonine.pipeline.errors import InputError, atomic_path
 
 F = Callable[..., Any]
@@ -83,32 +84,11 @@ class MissingExtra(click.ClickException):
         )
 
 
-#: System library a wheel loads → the Debian package that has it (named in errors).
-DEBIAN_PACKAGE_OF_LIBRARY = {
-    "libGL.so.1": "libgl1",
-    "libgomp.so.1": "libgomp1",
-    "libatomic.so.1": "libatomic1",
-    "libOpenGL.so.0": "libopengl0",
-}
-
-
-def _pymeshlab_filters(module) -> None:
-    """pymeshlab imports without its filter plugins when they cannot load libOpenGL."""
-    if not hasattr(module.MeshSet(), "meshing_decimation_quadric_edge_collapse"):
-        raise ImportError(
-            "pymeshlab's meshing filters did not load (libOpenGL.so.0: cannot open shared object "
-            "file)"
-        )
-
-
 #: Checks beyond importing: module name → a function raising ImportError when it is unusable.
-LOAD_CHECKS: dict[str, Callable[[Any], None]] = {"pymeshlab": _pymeshlab_filters}
-
-
-def debian_hint(message: str) -> str:
-    """`` (Debian: apt-get install PACKAGE)`` for the system library ``message`` names, or ``""``."""
-    package = next((p for lib, p in DEBIAN_PACKAGE_OF_LIBRARY.items() if lib in message), None)
-    return f" (Debian: apt-get install {package})" if package else ""
+LOAD_CHECKS: dict[str, Callable[[Any], None]] = {"pymeshlab": check_filters}
+#: Modules a command can do without when they cannot load: module → a probe choosing the fallback
+#: (warning once) or raising ImportError when the user insists on the module.
+FALLBACK_PROBES: dict[str, Callable[[], Any]] = {"pymeshlab": meshing_backend}
 
 
 class MissingSystemLibrary(click.ClickException):
@@ -119,6 +99,12 @@ class MissingSystemLibrary(click.ClickException):
     def __init__(self, command: str, module: str, error: BaseException):
         message = first_import_error(error)
         super().__init__(f"{command}: {module} cannot load: {message}{debian_hint(message)}")
+
+
+class BadEnvironment(click.ClickException):
+    """An environment variable has a value Pavonine does not know (one line, exit 2)."""
+
+    exit_code = 2
 
 
 def importable(module: str) -> bool:
@@ -133,7 +119,9 @@ def requires(*modules: str, may_not_load: tuple[str, ...] = ()) -> Callable[[F],
     """Check before the command runs (so it writes nothing) that ``modules`` are installed and
     load (a wheel can lack a system library, such as pymeshlab's libGL). Modules in
     ``may_not_load`` must be installed, but the command handles their failing to load itself
-    (``pavonine demo`` converts the feather and skips the render without Dr.Jit's libatomic)."""
+    (``pavonine demo`` converts the feather and skips the render without Dr.Jit's libatomic).
+    Modules in :data:`FALLBACK_PROBES` need not load: their probe picks the fallback (pymeshlab →
+    NumPy meshing, one warning) unless the user insists on them."""
 
     def decorate(func: F) -> F:
         @functools.wraps(func)
@@ -143,6 +131,14 @@ def requires(*modules: str, may_not_load: tuple[str, ...] = ()) -> Callable[[F],
                 if not importable(module):
                     raise MissingExtra(command, module)
                 if module in may_not_load:
+                    continue
+                if module in FALLBACK_PROBES:
+                    try:
+                        FALLBACK_PROBES[module]()
+                    except ImportError as exc:
+                        raise MissingSystemLibrary(command, module, exc) from None
+                    except InputError as exc:
+                        raise BadEnvironment(str(exc)) from None
                     continue
                 try:
                     loaded = importlib.import_module(module)

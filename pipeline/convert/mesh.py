@@ -12,9 +12,10 @@ atlas is computed on a *coarse* base mesh (a few thousand triangles, millisecond
 exactly through a regular refinement (every coarse triangle split into ``n²`` similar ones,
 UVs interpolated linearly inside it, which keeps the atlas free of overlaps). Positions are
 then evaluated analytically from the feather-space coordinate, so refinement costs one
-vectorised pass. Lower LODs are refined less and decimated by pymeshlab's quadric edge
-collapse with boundaries (silhouette and atlas seams) locked and vertices kept in place, so
-every attribute of a surviving vertex stays exact.
+vectorised pass. Lower LODs are refined less and decimated by quadric edge collapse
+(pymeshlab's, or :mod:`~pavonine.pipeline.convert.collapse` in NumPy when pymeshlab cannot
+load: :mod:`~pavonine.pipeline.convert.meshing`) with boundaries (silhouette and atlas seams)
+locked and vertices kept in place, so every attribute of a surviving vertex stays exact.
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import pymeshlab
 
 from pavonine.pipeline.convert.atlas import (
     AtlasedMesh,
@@ -38,6 +38,8 @@ from pavonine.pipeline.convert.barbs import (
     barb_direction_field,
     sample_direction,
 )
+from pavonine.pipeline.convert.collapse import collapse_to
+from pavonine.pipeline.convert.meshing import meshing_backend
 from pavonine.pipeline.convert.rachis import RachisSpec, base_rachis, rachis_positions
 from pavonine.pipeline.convert.refinement import RefinedMesh, refine, subdivision_for
 from pavonine.pipeline.convert.surface import FeatherFrame, normalise, prefilter, vertex_normals
@@ -252,14 +254,10 @@ def decimate_towards(mesh: MeshData, target: int) -> MeshData | None:
 
 
 def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
-    """Quadric edge collapse (pymeshlab) to ``target`` triangles, keeping every UV exact.
-
-    The mesh is handed to meshlab split along its atlas seams, so seams and the silhouette
-    are boundaries, which ``preserveboundary`` locks; ``optimalplacement=False`` keeps each
-    surviving vertex where it was; ``autoclean=False`` because its clean-up merges the
-    coincident vertices on either side of a seam, joining two charts (their ``st`` folds). A
-    vertex's source index rides along as a custom attribute, so feather UV, ``st``, height and
-    barb tangent are copied, not re-interpolated.
+    """Quadric edge collapse (:func:`quadric_collapse`) to ``target`` triangles, keeping every
+    UV exact: the mesh is collapsed split along its atlas seams, so seams and the silhouette are
+    locked boundaries, and surviving vertices keep their source index, so feather UV, ``st``,
+    height and barb tangent are copied, not re-interpolated.
     Returns ``None`` when the result would fold the atlas (a triangle flipped in ``st``
     against the rest of its chart).
     """
@@ -270,28 +268,7 @@ def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
     split_welded = np.zeros(len(mesh.st_values), dtype=np.int64)
     split_welded[mesh.st_indices] = mesh.faces.ravel()
     split_st = mesh.st_values
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(
-        pymeshlab.Mesh(mesh.points[split_welded], split_faces.astype(np.int32)),
-        set_as_current=True,
-    )
-    ms.current_mesh().add_vertex_custom_scalar_attribute(
-        np.arange(len(split_welded), dtype=np.float64), "source"
-    )
-    ms.meshing_decimation_quadric_edge_collapse(
-        targetfacenum=int(target),
-        preserveboundary=True,
-        boundaryweight=2.0,
-        optimalplacement=False,
-        preservenormal=True,
-        preservetopology=True,
-        planarquadric=True,
-        qualitythr=0.3,
-        autoclean=False,
-    )
-    out = ms.current_mesh()
-    source = np.rint(out.vertex_custom_scalar_attribute_array("source")).astype(np.int64)
-    new_split_faces = source[out.face_matrix().astype(np.int64)]
+    new_split_faces = quadric_collapse(mesh.points[split_welded], split_faces, split_st, target)
     welded_faces_old = split_welded[new_split_faces]
     # Collapses along a locked straight boundary can leave a triangle whose corners are
     # collinear in st (a zero-width sliver on the edge of a chart): drop those, then insist
@@ -326,3 +303,41 @@ def decimate_mesh(mesh: MeshData, target: int) -> MeshData | None:
         st_indices,
         None if mesh.height is None else mesh.height[kept],
     )
+
+
+def quadric_collapse(
+    points: np.ndarray, faces: np.ndarray, st: np.ndarray, target: int
+) -> np.ndarray:
+    """``faces`` decimated to about ``target`` triangles by half-edge quadric collapse with the
+    boundary locked, as indices into ``points`` (which keep their places).
+
+    pymeshlab when it loads: ``preserveboundary`` locks the boundary; ``optimalplacement=False``
+    keeps each surviving vertex where it was; ``autoclean=False`` because its clean-up merges
+    the coincident vertices on either side of a seam, joining two charts (their ``st`` folds);
+    a vertex's index rides along as a custom attribute. Otherwise
+    :func:`~pavonine.pipeline.convert.collapse.collapse_to`, the same in NumPy, which also
+    refuses collapses that fold ``st``.
+    """
+    backend = meshing_backend()
+    if backend.name == "numpy":
+        return collapse_to(points, faces, st, target)
+    pymeshlab = backend.pymeshlab
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(points, faces.astype(np.int32)), set_as_current=True)
+    ms.current_mesh().add_vertex_custom_scalar_attribute(
+        np.arange(len(points), dtype=np.float64), "source"
+    )
+    ms.meshing_decimation_quadric_edge_collapse(
+        targetfacenum=int(target),
+        preserveboundary=True,
+        boundaryweight=2.0,
+        optimalplacement=False,
+        preservenormal=True,
+        preservetopology=True,
+        planarquadric=True,
+        qualitythr=0.3,
+        autoclean=False,
+    )
+    out = ms.current_mesh()
+    source = np.rint(out.vertex_custom_scalar_attribute_array("source")).astype(np.int64)
+    return source[out.face_matrix().astype(np.int64)]

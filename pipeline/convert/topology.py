@@ -17,22 +17,8 @@ def edge_report(faces: np.ndarray, n_vertices: int) -> dict[str, int]:
     _, counts = np.unique(key, return_counts=True)
     directed_key = directed[:, 0] * n_vertices + directed[:, 1]
     _, dcounts = np.unique(directed_key, return_counts=True)
-    # Fans: faces around a vertex connected through shared edges incident to the vertex.
     corner_v = faces.ravel()
-    nxt = faces[:, [1, 2, 0]].ravel()
-    prv = faces[:, [2, 0, 1]].ravel()
-    # Each corner links (v, nxt) and (v, prv) "spokes"; corners sharing a spoke are linked.
-    spoke_a = corner_v * n_vertices + nxt
-    spoke_b = corner_v * n_vertices + prv
-    spokes = np.concatenate([spoke_a, spoke_b])
-    corners = np.concatenate([np.arange(len(corner_v)), np.arange(len(corner_v))])
-    order = np.argsort(spokes, kind="stable")
-    s_sorted, c_sorted = spokes[order], corners[order]
-    same = s_sorted[1:] == s_sorted[:-1]
-    links = (c_sorted[:-1][same], c_sorted[1:][same])
-    n_corners = len(corner_v)
-    graph = coo_matrix((np.ones(len(links[0])), links), shape=(n_corners, n_corners))
-    _, labels = connected_components(graph, directed=False)
+    labels = corner_fans(faces, n_vertices)
     fans_per_vertex = np.bincount(
         np.unique(np.column_stack([corner_v, labels]), axis=0)[:, 0], minlength=n_vertices
     )
@@ -41,3 +27,23 @@ def edge_report(faces: np.ndarray, n_vertices: int) -> dict[str, int]:
         "misoriented_edges": int(np.sum(dcounts > 1)),
         "non_manifold_vertices": int(np.sum(fans_per_vertex > 1)),
     }
+
+
+def corner_fans(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """Per corner (``faces.ravel()`` order), a label of its *fan*: the corners of a vertex whose
+    faces connect through edges incident to that vertex share a label. A manifold vertex has one
+    fan; a vertex where two pieces touch has more."""
+    faces = np.asarray(faces, dtype=np.int64)
+    corner_v = faces.ravel()
+    nxt = faces[:, [1, 2, 0]].ravel()
+    prv = faces[:, [2, 0, 1]].ravel()
+    # Each corner links (v, nxt) and (v, prv) "spokes"; corners sharing a spoke are linked.
+    spokes = np.concatenate([corner_v * n_vertices + nxt, corner_v * n_vertices + prv])
+    corners = np.concatenate([np.arange(len(corner_v)), np.arange(len(corner_v))])
+    order = np.argsort(spokes, kind="stable")
+    s_sorted, c_sorted = spokes[order], corners[order]
+    same = s_sorted[1:] == s_sorted[:-1]
+    links = (c_sorted[:-1][same], c_sorted[1:][same])
+    n_corners = len(corner_v)
+    graph = coo_matrix((np.ones(len(links[0])), links), shape=(n_corners, n_corners))
+    return connected_components(graph, directed=False)[1]

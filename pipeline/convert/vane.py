@@ -1,5 +1,6 @@
 """The coarse vane: a feather-space lattice cut to the alpha map's silhouette by marching
-triangles, freed of small islands and cleaned by meshlab (:func:`base_vane`).
+triangles, freed of small islands and cleaned (:func:`base_vane`; by meshlab's filters, or their
+NumPy twins in :mod:`~pavonine.pipeline.convert.cleaning` when pymeshlab cannot load).
 """
 
 from __future__ import annotations
@@ -7,10 +8,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pymeshlab
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from pavonine.pipeline.convert.cleaning import clean, compact, triangle_areas
+from pavonine.pipeline.convert.meshing import meshing_backend
 from pavonine.pipeline.maps.io import area_reduce, sample_bilinear
 
 #: Smallest fraction of an edge at which the silhouette may cut it (keeps triangles fat).
@@ -75,23 +77,6 @@ def clip_to_silhouette(
     return compact(all_uv, all_faces)
 
 
-def compact(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Drop unreferenced vertices and renumber."""
-    used = np.zeros(len(points), dtype=bool)
-    used[faces.ravel()] = True
-    remap = np.cumsum(used) - 1
-    return points[used], remap[faces]
-
-
-def triangle_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area of each triangle (2-D points give signed areas, counter-clockwise positive)."""
-    a, b, c = points[faces[:, 0]], points[faces[:, 1]], points[faces[:, 2]]
-    if points.shape[1] == 2:
-        e1, e2 = b - a, c - a
-        return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-
-
 def drop_islands(
     points: np.ndarray, faces: np.ndarray, min_share: float = 0.005
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -108,12 +93,17 @@ def drop_islands(
     return compact(points, faces[keep])
 
 
-def pymeshlab_clean(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Meshlab's cleaning filters on the flat feather-space mesh (positions = (u, v, 0)).
+def clean_flat(uv: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Meshlab's cleaning filters on the flat feather-space mesh (positions = (u, v, 0)), or
+    their NumPy twins (:func:`~pavonine.pipeline.convert.cleaning.clean`) without pymeshlab.
 
     Merges duplicate vertices, removes null faces and unreferenced vertices and repairs any
     non-manifold edge or vertex. Working in feather space keeps the coordinate recoverable.
     """
+    backend = meshing_backend()
+    if backend.name == "numpy":
+        return clean(uv, faces)
+    pymeshlab = backend.pymeshlab
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(np.column_stack([uv, np.zeros(len(uv))]), faces.astype(np.int32)))
     ms.meshing_remove_duplicate_vertices()
@@ -155,4 +145,4 @@ def base_vane(
             break
         pitch *= math.sqrt(ratio)
     uv, faces = drop_islands(uv, faces)
-    return pymeshlab_clean(uv, faces)
+    return clean_flat(uv, faces)
