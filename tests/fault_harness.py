@@ -110,9 +110,12 @@ def version_of(state: dict[str, str], versions: dict[str, dict[str, str]]) -> st
 
 
 def one_line_error(run: Run, path: str | os.PathLike, cause: str) -> None:
-    """``run`` failed with exit 2 and one line ``error: PATH: ... CAUSE ...`` on stderr."""
+    """``run`` failed with exit 2 and one line ``error: PATH: ... CAUSE ...`` on stderr; other
+    lines only ``warning:``/``info:`` (e.g. the converter meshing without pymeshlab)."""
     lines = [line for line in run.stderr.splitlines() if line.strip()]
     assert run.returncode == 2, run.stderr
+    assert all(line.startswith(("warning: ", "info: ")) for line in lines[:-1]), run.stderr
+    lines = lines[-1:]
     assert len(lines) == 1, run.stderr
     assert lines[0].startswith(f"error: {path}"), lines[0]
     assert cause in lines[0], lines[0]
