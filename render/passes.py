@@ -76,10 +76,10 @@ def render_pass(mi, scene, sensor: int, integrator, spp: int, seed: int) -> np.n
     tracing leaves a dangling pointer and Mitsuba segfaults. The caller collects before building
     the scene, and no collection runs while a pass is traced.
 
-    Each pass is traced with ``JitFlag.OptimizeLoops`` off. With it on, Dr.Jit records every
-    symbolic loop body twice (the first time to find its constant state), and ``volpath`` nests its
-    emitter-sampling loop in the path loop, so each virtual call in them was traced up to four
-    times; a train's ``Shape::compute_surface_interaction`` call holds ~200 registered shapes, 196
+    Each pass is traced with ``JitFlag.OptimizeLoops`` off. With it on, Dr.Jit records a symbolic
+    loop body again when the first recording shows state the loop never changes (to drop it), and
+    ``volpath`` nests its emitter-sampling loop in the path loop, so each virtual call in them was
+    traced up to four times; a train's ``Shape::compute_surface_interaction`` call holds ~200 registered shapes, 196
     of which (instances, shape groups) nest the same call again. Measured on the 192-feather train
     (64×48, 1 spp): 3,940 → 1,182 such calls traced, 21–25 s → 6–10 s of tracing per pass, the
     kernel's size and speed unchanged (177,944 → 177,808 IR operations).
