@@ -53,17 +53,20 @@ class _LoopingMitsuba:
 
 
 @pytest.mark.llvm
-def test_a_pass_traces_each_loop_body_once_and_restores_the_flag():
+def test_a_pass_of_an_instanced_scene_traces_each_loop_body_once_and_restores_the_flag():
     """With ``JitFlag.OptimizeLoops`` on, Dr.Jit traces a loop body again when its state holds a
     value the loop never changes; a train's path tracer holds ~200 k virtual-call bodies per
-    trace, so a pass records each loop once (and leaves the flag as it found it)."""
+    trace, so its passes record each loop once (``trace_loops_once``, set by the caller for
+    scenes with instances); other scenes keep the flag (a Dr.Jit 1.5.0 bug emits a callable twice
+    without it, see ``render_pass``). The flag is left as it was found."""
     from pavonine.backend import select_variant
 
     select_variant()
     import drjit as dr
 
     assert dr.flag(dr.JitFlag.OptimizeLoops)
-    fake = _LoopingMitsuba()
-    render_pass(fake, None, 0, None, 1, 0)
-    assert fake.traced == 1
+    once, default = _LoopingMitsuba(), _LoopingMitsuba()
+    render_pass(once, None, 0, None, 1, 0, trace_loops_once=True)
+    render_pass(default, None, 0, None, 1, 0)
+    assert (once.traced, default.traced) == (1, 2)
     assert dr.flag(dr.JitFlag.OptimizeLoops)
