@@ -167,6 +167,7 @@ def render_products(
                 job.size[0],
                 moments,
                 advance,
+                trace_loops_once=bool(delegate.table.instances),
             )
             images = job.plan.split(image)
             _finish_aovs(job, images)
