@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import os
 import re
-import sys
 from dataclasses import asdict, dataclass
 
 from pxr import Tf, Usd, UsdValidation
 
+from pavonine.native_output import silenced
 from pavonine.schemas import validation
 from pavonine.schemas.validation import ERROR
 
@@ -123,19 +122,10 @@ def _adjust_usd_findings(stage: Usd.Stage, findings: list[Finding]) -> list[Find
     return out
 
 
-@contextlib.contextmanager
-def quiet_usd_stderr():
+def quiet_usd_stderr() -> contextlib.AbstractContextManager[None]:
     """Silence USD's own diagnostic prints (TF_WARN) while validators run: what they say comes
     back as validation errors, reported in Pavonine's one-line form."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 2)
-            yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+    return silenced(2)
 
 
 def validate_stage(stage: Usd.Stage, file: str | None = None) -> list[Finding]:

@@ -12,17 +12,15 @@ every machine, e.g. a farm whose workers differ).
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import importlib
 import logging
 import os
-import sys
-from collections.abc import Iterator
 from dataclasses import dataclass
 from types import ModuleType
 
 from pavonine.backend import debian_hint, first_import_error
+from pavonine.native_output import silenced
 
 #: Environment variable choosing the backend: ``auto``, ``pymeshlab`` or ``numpy``.
 MESHING_ENV = "PAVONINE_MESHING"
@@ -55,33 +53,10 @@ def check_filters(module: ModuleType) -> None:
         )
 
 
-@contextlib.contextmanager
-def _silenced() -> Iterator[None]:
-    """File descriptors 1 and 2 to ``/dev/null`` inside the block: pymeshlab's plugin loader
-    prints a page of "Unable to load the following plugins" to *stdout* when libOpenGL is
-    missing, which would break ``--json -``."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    try:
-        saved = [os.dup(1), os.dup(2)]
-    except OSError:  # no stdout or stderr to keep clean
-        yield
-        return
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-            os.dup2(null.fileno(), 2)
-            yield
-    finally:
-        for fd, copy in zip((1, 2), saved, strict=True):
-            os.dup2(copy, fd)
-            os.close(copy)
-
-
 def pymeshlab_error() -> str | None:
     """Why pymeshlab (with its filters) cannot be used here, one line; ``None`` when it can."""
     try:
-        with _silenced():
+        with silenced():  # its plugin loader prints a page to stdout without libOpenGL (--json -)
             check_filters(importlib.import_module("pymeshlab"))
     except Exception as exc:  # ImportError for a missing .so; anything else is as fatal
         return first_import_error(exc)

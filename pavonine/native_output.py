@@ -1,0 +1,35 @@
+"""What native libraries print straight to the process's file descriptors (USD's ``TF_WARN``,
+pymeshlab's plugin loader), kept off the command's own output."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from collections.abc import Iterator
+
+
+@contextlib.contextmanager
+def silenced(*fds: int) -> Iterator[None]:
+    """File descriptors ``fds`` (default 1 and 2) go to ``/dev/null`` inside the block and come
+    back after it. Python's own streams are flushed first, so nothing written before the block is
+    lost. Where a descriptor cannot be duplicated (no stdout or stderr at all) the block runs
+    as it is."""
+    fds = fds or (1, 2)
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            stream.flush()
+    try:
+        saved = [os.dup(fd) for fd in fds]
+    except OSError:  # nothing to keep clean
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            for fd in fds:
+                os.dup2(null.fileno(), fd)
+            yield
+    finally:
+        for fd, copy in zip(fds, saved, strict=True):
+            os.dup2(copy, fd)
+            os.close(copy)
