@@ -19,6 +19,8 @@ import xatlas
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from pavonine.pipeline.convert import topology
+
 #: Charting pieces are bands at most this share of the vane's width long (see module doc).
 PIECE_SHARE_OF_WIDTH = 0.5
 
@@ -57,7 +59,7 @@ def piece_count(length: float, width: float) -> int:
 def cut_edges(faces: np.ndarray, labels: np.ndarray) -> tuple[int, int]:
     """``(boundary edges, seam edges)`` of a triangle mesh whose faces carry piece ``labels``:
     edges with one face, and edges between faces of two different pieces."""
-    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), 1)
+    edges = topology.edges(faces)
     owner = np.tile(np.arange(len(faces)), 3)
     order = np.lexsort((edges[:, 1], edges[:, 0]))
     edges, owner = edges[order], owner[order]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pavonine.pipeline.convert.topology import corner_fans
+from pavonine.pipeline.convert.topology import corner_fans, edges, has_distinct_corners
 
 
 def merge_duplicate_vertices(
@@ -37,18 +37,15 @@ def triangle_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def drop_null_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Faces with three distinct corners and a non-zero area."""
-    distinct = (
-        (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
-    )
-    return faces[distinct & (triangle_areas(points, faces) != 0.0)]
+    return faces[has_distinct_corners(faces) & (triangle_areas(points, faces) != 0.0)]
 
 
 def drop_non_manifold_edge_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Remove, from every edge with more than two faces, its smallest faces until two remain."""
     n = len(points)
     while True:
-        edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), 1)
-        key = edges[:, 0] * n + edges[:, 1]
+        pairs = edges(faces)
+        key = pairs[:, 0] * n + pairs[:, 1]
         _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
         crowded = counts[inverse.reshape(-1)] > 2
         if not crowded.any():

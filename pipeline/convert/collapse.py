@@ -27,6 +27,8 @@ import math
 import numpy as np
 from scipy.sparse import coo_matrix
 
+from pavonine.pipeline.convert.topology import edges, has_distinct_corners
+
 #: Largest turn of a triangle's normal a collapse may cause (degrees).
 NORMAL_LIMIT_DEG = 60.0
 #: Triangles of at least this quality (1 = equilateral, ``4√3·area / Σ edge²``) carry no penalty.
@@ -53,8 +55,8 @@ def plane_quadrics(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def boundary_vertices(faces: np.ndarray, n: int) -> np.ndarray:
     """Mask of the vertices on an edge that only one triangle has."""
-    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), 1)
-    unique, counts = np.unique(edges[:, 0] * n + edges[:, 1], return_counts=True)
+    pairs = edges(faces)
+    unique, counts = np.unique(pairs[:, 0] * n + pairs[:, 1], return_counts=True)
     single = unique[counts == 1]
     mask = np.zeros(n, dtype=bool)
     mask[single // n] = mask[single % n] = True
@@ -213,10 +215,6 @@ def collapse_to(points: np.ndarray, faces: np.ndarray, st: np.ndarray, target: i
         remap = np.arange(n)
         remap[u] = v
         faces = remap[faces]
-        faces = faces[
-            (faces[:, 0] != faces[:, 1])
-            & (faces[:, 1] != faces[:, 2])
-            & (faces[:, 2] != faces[:, 0])
-        ]
+        faces = faces[has_distinct_corners(faces)]
         quadric[v] += quadric[u]
     return faces

@@ -7,13 +7,26 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 
+def edges(faces: np.ndarray) -> np.ndarray:
+    """Each triangle's three edges as sorted vertex pairs, ``(3F, 2)``: all first edges
+    ``(0, 1)``, then ``(1, 2)``, then ``(2, 0)`` (edge ``k·F + f`` belongs to face ``f``)."""
+    return np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), 1)
+
+
+def has_distinct_corners(faces: np.ndarray) -> np.ndarray:
+    """Mask of the triangles whose three corners are three different vertices."""
+    return (
+        (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
+    )
+
+
 def edge_report(faces: np.ndarray, n_vertices: int) -> dict[str, int]:
     """Topology check: non-manifold edges (> 2 faces), inconsistently oriented edges and
     non-manifold vertices (a vertex whose faces form more than one fan)."""
     faces = np.asarray(faces, dtype=np.int64)
     directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    lo, hi = directed.min(axis=1), directed.max(axis=1)
-    key = lo * n_vertices + hi
+    pairs = edges(faces)
+    key = pairs[:, 0] * n_vertices + pairs[:, 1]
     _, counts = np.unique(key, return_counts=True)
     directed_key = directed[:, 0] * n_vertices + directed[:, 1]
     _, dcounts = np.unique(directed_key, return_counts=True)
