@@ -334,11 +334,18 @@ def commit_files(moves: Sequence[tuple[Path, Path]], subject: str | None = None)
         os.unlink(journal)
 
 
+def owner_pid(name: str) -> int | None:
+    """The process id in temporary ``name`` (``-<kind>-<pid>-``), ``None`` if it has none."""
+    try:
+        return int(name.rsplit(TEMPORARY_MARK, 1)[1].split("-")[1])
+    except (IndexError, ValueError):
+        return None
+
+
 def owner_alive(name: str) -> bool:
     """Whether the process that made temporary ``name`` still runs (``-<kind>-<pid>-``)."""
-    try:
-        pid = int(name.rsplit(TEMPORARY_MARK, 1)[1].split("-")[1])
-    except (IndexError, ValueError):
+    pid = owner_pid(name)
+    if pid is None:
         return True  # not one of ours after all: leave it
     if pid == os.getpid():
         return True

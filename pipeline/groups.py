@@ -30,7 +30,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from pavonine.pipeline.commit import JOURNAL, owner_alive, recover
+from pavonine.pipeline.commit import JOURNAL, owner_alive, owner_pid, recover
 from pavonine.pipeline.errors import TEMPORARY_MARK, InputError
 
 #: The header attribute marking a file as one of a group (JSON: ``id``, ``files``).
@@ -44,11 +44,33 @@ def new_group_id() -> str:
     return uuid.uuid4().hex
 
 
+def content_group_id(parts: Iterable) -> str:
+    """A group id that is a hash of the group's contents, so the same content gives the same
+    files: SHA-256 over ``parts`` in order (bytes as they are, arrays as contiguous float32),
+    its first 32 hex digits."""
+    import hashlib
+
+    import numpy as np
+
+    digest = hashlib.sha256()
+    for part in parts:
+        if not isinstance(part, bytes):
+            part = np.ascontiguousarray(part, dtype=np.float32).tobytes()
+        digest.update(part)
+    return digest.hexdigest()[:32]
+
+
 def group_attribute(group_id: str, member: str | os.PathLike, files: Iterable) -> str:
     """The ``pavonine:group`` value for ``member``: the group's ``files`` relative to its folder."""
     folder = Path(os.path.abspath(member)).parent
     names = sorted({os.path.relpath(os.path.abspath(f), folder) for f in files})
     return json.dumps({"id": group_id, "files": names}, separators=(",", ":"))
+
+
+def group_marks(group_id: str, files: Iterable) -> dict[Path, str]:
+    """The ``pavonine:group`` value of each of ``files`` (:func:`group_attribute`), by path."""
+    files = [Path(f) for f in files]
+    return {f: group_attribute(group_id, f, files) for f in files}
 
 
 @dataclass(frozen=True)
@@ -118,10 +140,9 @@ def settle(paths: Sequence[str | os.PathLike], timeout: float | None = None) -> 
     for folder in sorted(folders):
         while pending := _live_journals(folder, wanted):
             if time.monotonic() > deadline:
-                pid = pending[0].rsplit(TEMPORARY_MARK, 1)[1].split("-")[1]
                 raise InputError(
                     str(sorted(wanted)[0]),
-                    f"is being replaced by process {pid}, which has not finished in "
+                    f"is being replaced by process {owner_pid(pending[0])}, which has not finished in "
                     f"{SETTLE_TIMEOUT if timeout is None else timeout:g} s; try again",
                 )
             time.sleep(0.005)

@@ -222,7 +222,7 @@ def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | No
     same ``pavonine:render_id``.
     """
     from pavonine.pipeline.commit import commit_files, recover, temporary_file
-    from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute, new_group_id
+    from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_marks, new_group_id
 
     render_id = new_group_id()
     for folder in {Path(os.path.abspath(p)).parent for out in outputs for p in _paths(out)}:
@@ -230,15 +230,15 @@ def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | No
     with contextlib.ExitStack() as stack:
         moves: list[tuple[Path, Path]] = []
         for out in outputs:
-            group = _paths(out)  # one image's files: each names the others (pipeline/groups.py)
-
-            def mark(member: str | os.PathLike) -> str:
-                return group_attribute(render_id, member, group)  # noqa: B023 (used at once)
-
+            # One image's files: each names the others (pipeline/groups.py).
+            marks = group_marks(render_id, _paths(out))
             exr_tmp = stack.enter_context(temporary_file(out.exr_path))
             metadata = {**(out.metadata or {}), "render_id": render_id}
             write_exr(
-                exr_tmp, out.rgb, {**metadata, "group": mark(out.exr_path)}, layers=out.layers
+                exr_tmp,
+                out.rgb,
+                {**metadata, "group": marks[Path(out.exr_path)]},
+                layers=out.layers,
             )
             moves.append((exr_tmp, Path(out.exr_path)))
             if out.variance_path:
@@ -247,12 +247,15 @@ def write_renders(outputs: Sequence[RenderFiles], display: DisplayTransform | No
                 write_exr(
                     var_tmp,
                     out.variance,
-                    {**metadata, **quantity, "group": mark(out.variance_path)},
+                    {**metadata, **quantity, "group": marks[Path(out.variance_path)]},
                 )
                 moves.append((var_tmp, Path(out.variance_path)))
             if out.png_path:
                 png_tmp = stack.enter_context(temporary_file(out.png_path))
-                attributes = {"pavonine:render_id": render_id, GROUP_ATTRIBUTE: mark(out.png_path)}
+                attributes = {
+                    "pavonine:render_id": render_id,
+                    GROUP_ATTRIBUTE: marks[Path(out.png_path)],
+                }
                 write_png(png_tmp, out.rgb, display, attributes=attributes)
                 moves.append((png_tmp, Path(out.png_path)))
         try:

@@ -28,7 +28,7 @@ from pavonine.pipeline.compare.methods import (
     read_variance,
 )
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute, read_mark
+from pavonine.pipeline.groups import GROUP_ATTRIBUTE, content_group_id, group_marks, read_mark
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.shipped import baselines_dir, display_path, scenes_dir
 
@@ -331,14 +331,11 @@ def update_baseline(
     # Its files are also marked as one group (pavonine.pipeline.groups): where the file system
     # cannot exchange folders the commit is file by file, and load_baseline refuses a mix. The
     # id is a hash of the pixels: the same render gives the same files.
-    digest = hashlib.sha256()
-    for pixels in (render.rgb, render.variance):
-        digest.update(np.ascontiguousarray(pixels, dtype=np.float32).tobytes())
-    group_id = digest.hexdigest()[:32]
+    group_id = content_group_id((render.rgb, render.variance))
     info["group"] = group_id
     with staged_folder(target, replace=True, subject=name) as staging:
         files = [staging / f for f in (MEAN_FILE, VARIANCE_FILE, PREVIEW_FILE)]
-        marks = {f.name: group_attribute(group_id, f, files) for f in files}
+        marks = {f.name: mark for f, mark in group_marks(group_id, files).items()}
         write_exr(
             staging / MEAN_FILE,
             render.rgb,

@@ -24,7 +24,6 @@ the feather's length and pixels are square.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 from collections.abc import Callable
@@ -439,20 +438,21 @@ def write_maps(
     The six are marked as one group (``pavonine:group``, :mod:`pavonine.pipeline.groups`) so
     that readers refuse a set mixed from two writes. Its id is ``group_id``, by default a hash
     of the maps' contents: the same maps give the same bytes (``--seed`` reproduces a set)."""
-    from pavonine.pipeline.groups import GROUP_ATTRIBUTE, group_attribute
+    from pavonine.pipeline.groups import GROUP_ATTRIBUTE, content_group_id, group_marks
 
     outdir = Path(outdir)
     paths = {name: outdir / f"{name}{extension}" for name in MAP_NAMES}
     if group_id is None:
-        digest = hashlib.sha256(extension.encode())
+        parts: list = [extension.encode()]
         for name in MAP_NAMES:
-            values = np.ascontiguousarray(maps[name], dtype=np.float32)
-            digest.update(f"{name}{values.shape}".encode() + values.tobytes())
-        group_id = digest.hexdigest()[:32]
+            parts += [f"{name}{np.shape(maps[name])}".encode(), maps[name]]
+        group_id = content_group_id(parts)
+    marks = group_marks(group_id, paths.values())
     for name, path in paths.items():
-        marks = {GROUP_ATTRIBUTE: group_attribute(group_id, path, paths.values())}
         description = f"pavonine {name} map (paper section 3.3)"
-        write_map(path, maps[name], description=description, attributes=marks)
+        write_map(
+            path, maps[name], description=description, attributes={GROUP_ATTRIBUTE: marks[path]}
+        )
     return paths
 
 
