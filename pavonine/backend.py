@@ -7,11 +7,13 @@ usable LLVM it falls back to ``scalar_spectral`` with one warning. A library tha
 not a library at all aborts the process natively (``LLVM ERROR``, SIGFPE) the first time Dr.Jit
 compiles a kernel, so :func:`probe_libllvm` first compiles one in a *subprocess*; its verdict is
 cached per (path, size, mtime, Dr.Jit version) in :func:`probe_cache_path`, so it costs once. :func:`set_threads` bounds the
-worker threads of Dr.Jit, OpenImageIO and the BLAS/OpenMP libraries (``--threads``).
+worker threads of Dr.Jit, OpenImageIO and the BLAS/OpenMP libraries; :class:`thread_limit` does
+it for one block and puts the previous limits back (``--threads``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import importlib.util
 import json
@@ -92,6 +94,60 @@ def set_threads(count: int | None) -> None:
 def thread_count() -> int | None:
     """The thread limit set by :func:`set_threads` (``None``: one per core)."""
     return _threads
+
+
+class thread_limit(contextlib.AbstractContextManager):
+    """Use at most ``count`` worker threads inside the ``with`` block (``None``: leave them as
+    they are), then restore what was in force before, whether the block succeeded or raised:
+    :func:`thread_count`, the :data:`THREAD_ENV_VARS`, Dr.Jit's pool (back to one thread per
+    core when Dr.Jit loaded inside the block) and OpenImageIO's ``threads`` attribute.
+
+    A class, not a generator, for the reason :class:`pavonine.limits.pixel_budget` gives: an
+    abandoned generator would restore old limits whenever the garbage collector finds it.
+    """
+
+    def __init__(self, count: int | None) -> None:
+        self._count = count
+        self._before: tuple | None = None
+
+    def __enter__(self) -> None:
+        if self._count is None:
+            return
+        drjit = sys.modules.get("drjit")
+        self._before = (
+            _threads,
+            {name: os.environ.get(name) for name in THREAD_ENV_VARS},
+            drjit.thread_count() if drjit is not None else None,
+            _oiio_threads(),
+        )
+        set_threads(self._count)
+
+    def __exit__(self, *exc_info: object) -> None:
+        if self._before is None:
+            return
+        global _threads
+        _threads, environ, drjit_count, oiio_count = self._before
+        self._before = None
+        for name, value in environ.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+        if "drjit" in sys.modules:
+            sys.modules["drjit"].set_thread_count(drjit_count or os.cpu_count() or 1)
+        if oiio_count is not None:
+            import OpenImageIO as oiio
+
+            oiio.attribute("threads", oiio_count)
+
+
+def _oiio_threads() -> int | None:
+    """OpenImageIO's ``threads`` attribute, or ``None`` when OpenImageIO is not installed."""
+    try:
+        import OpenImageIO as oiio
+    except ImportError:
+        return None
+    return oiio.get_int_attribute("threads")
 
 
 def _llvm_major(path: str) -> int | None:

@@ -297,23 +297,34 @@ def test_verbosity_reaches_commands_added_later(monkeypatch):
 
 
 @pytest.mark.mitsuba
-def test_threads_option_sets_drjit_threads(monkeypatch):
+def test_threads_option_holds_while_the_command_runs_and_not_after(monkeypatch):
+    """``--threads 1`` bounds Dr.Jit, the limit Pavonine hands to workers and the BLAS/OpenMP
+    variables while the command's body runs; afterwards (and after a usage error found once the
+    option was parsed) the process is as it was, so in-process callers never inherit it."""
     import drjit as dr
 
-    from pavonine.backend import set_threads
+    from pavonine import backend
+    from pavonine.pipeline.errors import InputError
+    from pavonine.pipeline.farm import cli as farm
 
-    before = dr.thread_count()
-    try:
-        result = invoke(
-            "render", str(DATA / "render" / "nope.usda"), "--threads", "1", "--spp", "1"
-        )
-        assert result.exit_code == 2  # the stage does not exist; the option was applied first
-        assert dr.thread_count() == 1
-        assert os.environ["OMP_NUM_THREADS"] == "1"
-    finally:
-        set_threads(before)
-        for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-            monkeypatch.delenv(name, raising=False)
+    def state() -> tuple:
+        return dr.thread_count(), backend.thread_count(), os.environ.get("OMP_NUM_THREADS")
+
+    before = state()
+    seen = []
+
+    def spy(stage, *args, **kwargs):
+        seen.append(state())
+        raise InputError(str(stage), "stopped by the test")
+
+    monkeypatch.setattr(farm, "render_views", spy)
+    stage = str(DATA / "render" / "bare_quad.usda")
+    result = invoke("render", stage, "--threads", "1", "--spp", "1")
+    assert result.exit_code != 0 and "stopped by the test" in result.stderr, result.output
+    assert seen == [(1, 1, "1")]
+    assert state() == before
+    assert invoke("render", "--threads", "1").exit_code == 2  # no STAGE: a usage error
+    assert state() == before
     one_error_line(invoke("render", "x.usda", "--threads", "0"), "--threads: 0 is not in the range")
 
 

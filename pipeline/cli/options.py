@@ -7,7 +7,7 @@ Every command uses these instead of declaring its own variant (docs/cli.md descr
 ``json_option``        ``--json FILE|-``: the command's report as JSON, with a documented schema;
                        ``-`` = stdout, and then nothing else goes to stdout (param ``json_target``)
 ``junit_option``       ``--junit FILE``: results as JUnit XML for CI systems (param ``junit``)
-``threads_option``     ``--threads N`` (or ``$PAVONINE_THREADS``): worker threads (applied, no param)
+``threads_option``     ``--threads N`` (or ``$PAVONINE_THREADS``): worker threads (in force in the body, no param)
 (``values.py``)        ``FiniteFloat``, ``SEED``, ``max_pixels_option``: checked numbers, seeds and
                        the ``--max-pixels`` budget of images read
 ``display_options``    ``--ocio-config``/``--display``/``--view``/``--exposure``: the OCIO display
@@ -384,25 +384,33 @@ def junit_option(func: F) -> F:
 
 
 # ------------------------------------------------------------------------------- --threads
-def _apply_threads(ctx: click.Context, param: click.Parameter, value: int | None) -> None:
-    from pavonine.backend import set_threads
+def apply_threads(count: int | None) -> None:
+    """Make ``count`` the worker-thread limit for the running command only (``None``: not
+    given, one per core). The limits before are restored when the command's click context
+    closes, also when it fails, so commands run in-process never leave them changed. Call it
+    from the command's body, never from a parameter callback (see ``apply_pixel_budget``)."""
+    from pavonine.backend import thread_limit
 
-    if value is not None:
-        set_threads(value)
+    click.get_current_context().with_resource(thread_limit(count))
 
 
 def threads_option(func: F) -> F:
-    """``--threads N`` (default ``$PAVONINE_THREADS``, else one per core), applied at once."""
+    """``--threads N`` (default ``$PAVONINE_THREADS``, else one per core), in force while the
+    command's body runs (the function gets no parameter for it)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, threads: int | None, **kwargs: Any) -> Any:
+        apply_threads(threads)
+        return func(*args, **kwargs)
+
     return click.option(
         "--threads",
         type=click.IntRange(min=1),
         envvar=THREADS_ENV,
         show_envvar=True,
-        expose_value=False,
-        callback=_apply_threads,
         metavar="N",
         help="Worker threads (Dr.Jit, OpenImageIO, BLAS) [default: one per core].",
-    )(func)
+    )(wrapper)
 
 
 # -------------------------------------------------------------------------- display options

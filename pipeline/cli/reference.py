@@ -32,7 +32,8 @@ Every command follows the same rules (`pavonine/pipeline/cli/options.py` impleme
   `-q` keeps only warnings and errors and hides progress bars, `-v` adds details, `-vv` debug.
   Progress bars are drawn on stderr, and only when it is a terminal.
 * **`--threads N`** (or `$PAVONINE_THREADS`) on commands that compute: Dr.Jit, OpenImageIO and
-  BLAS worker threads [default: one per core].
+  BLAS worker threads while the command runs [default: one per core]; a caller that runs commands
+  in its own process (`CliRunner`, a tool) gets its previous limits back afterwards.
 * **`--ocio-config`, `--display`, `--view`, `--exposure`** on commands that write display images
   (PNGs): the OpenColorIO display transform. The config defaults to `$OCIO`, else the pinned,
   versioned built-in `ocio://cg-config-v4.0.0_aces-v2.0_ocio-v2.5` with `sRGB - Display` /
