@@ -2,7 +2,8 @@
 
 The stage is translated once by :class:`~pavonine.render.delegate.StageDelegate`; every
 ``RenderProduct`` of its render settings (:mod:`.settings`) gets its own Mitsuba sensor (camera,
-resolution, pixel aspect) in one scene, and is rendered with Mitsuba's ``volpath`` integrator — inside
+resolution, pixel aspect) in one scene, and is rendered with the ``pavonine_path`` integrator
+(:mod:`.integrator`; Mitsuba's ``volpath`` in scalar variants) — inside
 an ``aov`` integrator when its ``RenderVar``\\ s ask for AOVs (:mod:`.aovs`) — in the chosen
 spectral variant (``llvm_ad_spectral`` by default), with a box pixel filter so that each pixel is
 the plain mean of its samples, progressively in passes (:mod:`.passes`).
@@ -27,6 +28,7 @@ from pavonine.pipeline.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
 from pavonine.render import instance_primvars, lights
+from pavonine.render import integrator as path_integrator
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
@@ -37,7 +39,6 @@ from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_rende
 __all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
 
 MAX_DEPTH = 8
-INTEGRATOR = "volpath"  # like "path", and shadow rays pass null (mask) surfaces
 
 
 @dataclass
@@ -152,7 +153,7 @@ def render_products(
         ) from None
     instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
 
-    path_tracer = {"type": INTEGRATOR, "max_depth": MAX_DEPTH}
+    path_tracer = path_integrator.path_tracer(MAX_DEPTH)
     results = []
     with _progress(stage_path, jobs, spp, progress) as advance:
         for index, job in enumerate(jobs):

@@ -5,8 +5,9 @@ mesh seen from its back renders as an opaque black shape. :func:`cull_back_faces
 in this module's ``pavonine_front_only`` BSDF: where a ray arrives on the side the geometric
 normal points to (the front, by the mesh's winding and ``orientation``) it is the nested BSDF;
 behind, a ray sampled there continues unchanged (a ``Null`` event, as Mitsuba's ``mask`` does
-with opacity 0). Shadow rays (next-event estimation) are different: the ``volpath`` integrator
-lets them through a surface by its :meth:`eval_null_transmission`, which is the nested BSDF's
+with opacity 0). Shadow rays (next-event estimation) are different: the path integrator
+(``pavonine_path``, as Mitsuba's ``volpath``) lets them through a surface by its
+:meth:`eval_null_transmission`, which is the nested BSDF's
 from either side, so a single-sided wall or card casts its shadow whichever side faces the
 light, as in production ray tracers (a ``mask`` with a front-facing opacity would let light
 through the back of every single-sided card).

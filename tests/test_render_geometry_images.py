@@ -125,7 +125,7 @@ def test_single_sided_back_faces_are_culled_double_sided_are_not(tmp_path):
 
 def test_single_sided_card_casts_its_shadow_whichever_side_faces_the_light(tmp_path):
     """Culling is for the rays that look: shadow rays stop at a single-sided card from either side
-    (``volpath`` lets shadow rays through ``mask``\\ s, so a front-facing mask would leak light)."""
+    (the integrator lets shadow rays through ``mask``\\ s, so a front-facing mask would leak light)."""
     for front_up in (True, False):
         stage = lit_stage(tmp_path / f"shadow_{front_up}.usda", sun_tilt=30.0)
         floor = UsdGeom.Mesh.Define(stage, "/Floor")

@@ -1,0 +1,196 @@
+"""``pavonine_path``: Mitsuba's ``volpath`` for scenes without media, with one intersection site.
+
+Why: Dr.Jit traces every registered shape's ``compute_surface_interaction`` at each place an
+integrator intersects the scene, and a point-instanced scene registers one shape per instance.
+``volpath`` intersects in four places (in its path loop and in the loop its shadow rays run
+through null surfaces, once for media and once for surfaces in each, all traced when a scene has
+no media), so the 192-feather train's trace held ~500 MiB and took seconds per pass. Here the
+shadow ray is a *state* of the one path loop: an iteration either extends the path or advances
+its pending shadow ray, and both intersect through the same call (the train's kernel: 94,906 IR
+operations against ``volpath``'s 177,808; README, benchmark notes).
+
+What it computes is ``volpath``'s estimator without media (Mitsuba 3.9.1,
+``src/integrators/volpath.cpp``), step for step:
+
+* next-event estimation at every vertex whose BSDF has a smooth lobe, the shadow ray passing
+  null surfaces with the weight of their :meth:`eval_null_transmission` (``mask`` opacity,
+  ``pavonine_front_only`` backs), multiple importance sampling by the power heuristic against
+  the BSDF's pdf (Veach 1997, Eq. 9.13), delta lights unweighted;
+* an emitter hit by a BSDF-sampled ray weighted against the emitter pdf seen from the last
+  non-null scattering vertex; camera rays and specular chains count it whole;
+* a ``Null`` BSDF sample (passing a mask or a back face) neither counts as a bounce nor moves
+  the last scattering vertex; ``max_depth`` counts scattering vertices, ``rr_depth`` starts
+  Russian roulette with continuation probability ``min(max(β)·η², 0.95)``;
+* the sample is valid (film alpha) once a non-null scattering happened or when the scene has
+  an environment emitter.
+
+Random numbers are drawn in ``volpath``'s order (roulette, light, BSDF), so with one seed the
+two images nearly coincide; ``tests/test_integrator.py`` compares them with different seeds by
+the statistical test ``pavonine compare --method stat`` uses, and against a closed form (a
+half-present card lets half the sun into its shadow). Media are not handled (the delegate makes
+none); scalar variants keep ``volpath`` (a Python integrator is called per sample there).
+"""
+
+from __future__ import annotations
+
+PLUGIN_NAME = "pavonine_path"
+_registered: set[str] = set()
+
+
+def mis_weight(pdf_a, pdf_b):
+    """Power heuristic (Veach 1997, Eq. 9.13, β = 2) of strategy ``a`` against ``b``, 0 where
+    it is not finite (both pdfs 0, or infinite)."""
+    import drjit as dr
+
+    a2, b2 = pdf_a * pdf_a, pdf_b * pdf_b
+    w = a2 / (a2 + b2)
+    return dr.select(dr.isfinite(w), w, 0.0)
+
+
+def _plugin_class():
+    """The integrator class for the active variant (Mitsuba classes are per variant)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    class PavoninePath(mi.SamplingIntegrator):
+        """Unidirectional path tracer, shadow rays through null surfaces (module docstring)."""
+
+        def __init__(self, props: mi.Properties):
+            mi.SamplingIntegrator.__init__(self, props)
+            self.max_depth = int(props.get("max_depth", 8))
+            self.rr_depth = int(props.get("rr_depth", 5))
+            if self.max_depth < 1 or self.rr_depth < 1:
+                raise ValueError("max_depth and rr_depth must be at least 1")
+
+        @dr.syntax
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            import drjit as dr  # dr.syntax recompiles the body without the enclosing scope
+            import mitsuba as mi
+
+            ctx = mi.BSDFContext()
+            ray = mi.Ray3f(ray)
+            has_env = scene.environment() is not None
+            result = mi.Spectrum(0.0)
+            throughput = mi.Spectrum(1.0)
+            eta = mi.Float(1.0)
+            depth = mi.UInt32(0)
+            valid = mi.Bool(has_env) & mi.Bool(active)
+            specular_chain = mi.Bool(active)
+            last_event = dr.zeros(mi.Interaction3f)
+            last_pdf = mi.Float(1.0)
+            walking = mi.Bool(active)  # the path goes on
+            # The pending shadow ray: its ray, length to the light, length done, weight.
+            shadow = mi.Bool(False)
+            shadow_ray = dr.zeros(mi.Ray3f)
+            shadow_length = mi.Float(0.0)
+            shadow_done = mi.Float(0.0)
+            shadow_weight = mi.Spectrum(0.0)
+
+            while walking | shadow:
+                was_shadow = mi.Bool(shadow)  # this iteration advances the shadow ray
+                stepping = walking & ~shadow  # this iteration extends the path
+                # Russian roulette and the depth limit, at the top of a path step (volpath).
+                stepping &= dr.any(mi.unpolarized_spectrum(throughput) != 0.0)
+                q = dr.minimum(dr.max(mi.unpolarized_spectrum(throughput)) * eta * eta, 0.95)
+                roulette = stepping & (depth > self.rr_depth)
+                stepping &= (sampler.next_1d(stepping) < q) | ~roulette
+                throughput[roulette] = throughput * dr.rcp(q)
+                stepping &= depth < self.max_depth
+                walking &= shadow | stepping
+
+                # One intersection: the pending shadow ray, else the path's ray.
+                current = dr.select(shadow, shadow_ray, ray)
+                current.maxt = dr.select(shadow, shadow_length - shadow_done, current.maxt)
+                si = scene.ray_intersect(current, shadow | stepping)
+                bsdf = si.bsdf(current)
+
+                # ---- shadow step: through null surfaces by their transmission (volpath).
+                blocker = shadow & si.is_valid()
+                shadow_done[shadow] = shadow_done + si.t
+                shadow_weight[blocker] = shadow_weight * bsdf.eval_null_transmission(si, blocker)
+                shadow_ray[blocker] = si.spawn_ray(current.d)
+                through = dr.any(mi.unpolarized_spectrum(shadow_weight) != 0.0)
+                arrived = shadow & (~si.is_valid() | (shadow_length - shadow_done <= 0.0))
+                result[arrived & through] = result + shadow_weight
+                shadow &= ~arrived & through
+
+                # ---- path step: emission found by the path's ray.
+                emitter = si.emitter(scene)
+                lit = stepping & (emitter != None)  # noqa: E711 (a Dr.Jit pointer array)
+                ds = mi.DirectionSample3f(scene, si, last_event)
+                emitter_pdf = scene.pdf_emitter_direction(last_event, ds, lit & ~specular_chain)
+                weight = dr.select(specular_chain, 1.0, mis_weight(last_pdf, emitter_pdf))
+                result[lit] = result + throughput * weight * emitter.eval(si, lit)
+                stepping &= si.is_valid()
+
+                # Next-event estimation: sample a light, queue its shadow ray.
+                sample_light = (
+                    stepping
+                    & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+                    & (depth + 1 < self.max_depth)
+                )
+                ds, light = scene.sample_emitter_direction(
+                    si, sampler.next_2d(sample_light), False, sample_light
+                )
+                sample_light &= ds.pdf != 0.0
+                wo = si.to_local(ds.d)
+                bsdf_value, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, sample_light)
+                light_weight = mis_weight(ds.pdf, dr.select(ds.delta, 0.0, bsdf_pdf))
+                queued = throughput * bsdf_value * light_weight * light
+                sample_light &= dr.any(mi.unpolarized_spectrum(queued) != 0.0)
+                towards = si.spawn_ray_to(ds.p)
+                shadow_ray[sample_light] = towards
+                shadow_length[sample_light] = towards.maxt
+                shadow_done[sample_light] = 0.0
+                shadow_weight[sample_light] = queued
+                shadow |= sample_light
+
+                # BSDF sampling: the path's next ray.
+                bs, bsdf_weight = bsdf.sample(
+                    ctx, si, sampler.next_1d(stepping), sampler.next_2d(stepping), stepping
+                )
+                throughput[stepping] = throughput * bsdf_weight
+                eta[stepping] = eta * bs.eta
+                ray[stepping] = si.spawn_ray(si.to_world(bs.wo))
+                scattered = stepping & ~mi.has_flag(bs.sampled_type, mi.BSDFFlags.Null)
+                depth[scattered] = depth + 1
+                last_event[scattered] = mi.Interaction3f(si)
+                last_pdf[scattered] = bs.pdf
+                valid |= scattered
+                delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+                specular_chain[scattered & delta] = True
+                specular_chain[stepping & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Smooth)] = False
+                walking = dr.select(was_shadow, walking, stepping)
+
+            return result, valid, []
+
+        def aov_names(self):
+            return []
+
+        def to_string(self):
+            return f"PavoninePath[max_depth={self.max_depth}, rr_depth={self.rr_depth}]"
+
+    return PavoninePath
+
+
+def register() -> None:
+    """Register the integrator with Mitsuba (once per variant)."""
+    import mitsuba as mi
+
+    variant = mi.variant()
+    if variant in _registered:
+        return
+    cls = _plugin_class()
+    mi.register_integrator(PLUGIN_NAME, lambda props: cls(props))
+    _registered.add(variant)
+
+
+def path_tracer(max_depth: int) -> dict:
+    """The path tracer's Mitsuba dict for the active variant: ``pavonine_path`` in JIT variants,
+    Mitsuba's ``volpath`` in scalar ones (module docstring)."""
+    import mitsuba as mi
+
+    if not mi.variant().startswith(("llvm_", "cuda_")):
+        return {"type": "volpath", "max_depth": max_depth}
+    register()
+    return {"type": PLUGIN_NAME, "max_depth": max_depth}

@@ -1,0 +1,133 @@
+"""``pavonine_path`` against Mitsuba's ``volpath`` and a closed form (render/integrator.py)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from pavonine.pipeline.compare.methods import stat_test
+from pavonine.render import api
+from pavonine.render.diagnostics import StageWarning
+
+pytestmark = pytest.mark.render
+SCENES = Path(__file__).resolve().parents[1] / "assets" / "scenes"
+CARD_VIEW = (48, 48)  # pixels of card_over_floor's square view, as strips() reads them
+
+
+def render(stage_path, tracer: str, spp: int = 32, size=(64, 48)):
+    """(mean, variance) of a moments render with ``tracer``: ours, or a Mitsuba integrator. Ours
+    gets seed 1, Mitsuba's seed 0: both draw their random numbers in the same order, so with one
+    seed the two would share their noise and a comparison would not be a two-sample test."""
+    original = api.path_integrator.path_tracer
+    if tracer != "pavonine_path":
+        api.path_integrator.path_tracer = lambda depth: {"type": tracer, "max_depth": depth}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", StageWarning)
+            result = api.render_stage(
+                str(stage_path),
+                spp=spp,
+                resolution=size,
+                progress=False,
+                moments=True,
+                seed=1 if tracer == "pavonine_path" else 0,
+            )
+    finally:
+        api.path_integrator.path_tracer = original
+    return result.rgb, result.variance
+
+
+def card_over_floor(path: Path, opacity: float) -> Path:
+    """A white floor, a card of ``opacity`` (UsdPreviewSurface, ``presence``) 1 unit above it, an
+    orthographic camera looking down and a sun 30° off the vertical (the card's shadow lands
+    0.58 units aside, where the camera sees the floor directly)."""
+    stage = Usd.Stage.CreateNew(str(path))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+    cam.CreateHorizontalApertureAttr(30.0)  # tenths of a unit: [-1.5, 1.5]²
+    cam.CreateVerticalApertureAttr(30.0)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(0.1, 100))
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, 10))
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateAngleAttr(0.0)
+    sun.CreateIntensityAttr(math.pi)
+    sun.CreateNormalizeAttr(True)
+    sun.AddRotateXOp().Set(30.0)
+    for name, z, size in (("Floor", 0.0, 2.0), ("Card", 1.0, 0.5)):
+        mesh = UsdGeom.Mesh.Define(stage, f"/{name}")
+        mesh.CreatePointsAttr(
+            [(-size, -size, z), (size, -size, z), (size, size, z), (-size, size, z)]
+        )
+        mesh.CreateFaceVertexCountsAttr([4])
+        mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        mesh.CreateSubdivisionSchemeAttr("none")
+        mesh.CreateDoubleSidedAttr(True)
+    material = UsdShade.Material.Define(stage, "/Looks/Card")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Card/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.5, 0.5))
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(opacity)
+    shader.CreateInput("opacityMode", Sdf.ValueTypeNames.Token).Set("presence")
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/Card")).Bind(material)
+    stage.Save()
+    return path
+
+
+def strips(image: np.ndarray) -> tuple[float, float]:
+    """(in the card's shadow, in full sun): floor strips beside the card's footprint."""
+    shadowed, lit = image[8:14, 18:30].mean(), image[34:40, 18:30].mean()
+    return float(min(shadowed, lit)), float(max(shadowed, lit))
+
+
+def test_a_half_present_card_lets_half_the_sun_into_its_shadow(tmp_path):
+    """Closed form: a shadow ray through a card of presence 0.5 carries half the sun, so the floor
+    in its shadow is half as bright as in full sun (up to light the card's underside sends back
+    down). Mitsuba's ``path`` stops shadow rays at the card, which gives 0."""
+    stage = card_over_floor(tmp_path / "card.usda", opacity=0.5)
+    image, _ = render(stage, "pavonine_path", spp=16, size=CARD_VIEW)
+    shadowed, lit = strips(image.mean(axis=2))
+    assert lit > 0.3
+    assert shadowed / lit == pytest.approx(0.5, abs=0.05)
+    opaque_shadows, _ = render(stage, "path", spp=16, size=CARD_VIEW)
+    shadowed, lit = strips(opaque_shadows.mean(axis=2))
+    assert shadowed / lit < 0.05  # the closed form above tells the two apart
+
+
+def test_the_statistical_comparison_tells_path_from_volpath(tmp_path):
+    """The agreement test below can fail: ``path`` (opaque shadow rays) against ``volpath`` on the
+    half-present card fails the same z-test that ``pavonine_path`` passes."""
+    stage = card_over_floor(tmp_path / "card.usda", opacity=0.5)
+    reference, reference_var = render(stage, "volpath", size=CARD_VIEW)
+    opaque, opaque_var = render(stage, "path", size=CARD_VIEW)
+    assert not stat_test(opaque, reference, opaque_var, reference_var).passed
+    ours, ours_var = render(stage, "pavonine_path", size=CARD_VIEW)
+    assert stat_test(ours, reference, ours_var, reference_var).passed
+
+
+@pytest.mark.parametrize("scene", ["eye_feather_sun", "light_mesh", "light_dome"])
+def test_agrees_with_volpath_on_shipped_scenes(scene):
+    """Feather BSDF with its alpha map (null surfaces on camera and shadow rays), an emissive mesh
+    (MIS between light and BSDF sampling), an environment light: the same image within noise."""
+    ours, ours_var = render(SCENES / f"{scene}.usda", "pavonine_path")
+    theirs, theirs_var = render(SCENES / f"{scene}.usda", "volpath")
+    result = stat_test(ours, theirs, ours_var, theirs_var)
+    assert result.passed, result.numbers
+
+
+def test_scalar_variants_keep_volpath(monkeypatch):
+    """A Python integrator is called per sample in a scalar variant: those keep Mitsuba's."""
+    import mitsuba as mi
+
+    from pavonine.render import integrator
+
+    monkeypatch.setattr(mi, "variant", lambda: "scalar_spectral")
+    assert integrator.path_tracer(8) == {"type": "volpath", "max_depth": 8}
+    monkeypatch.setattr(mi, "variant", lambda: "llvm_ad_spectral")
+    monkeypatch.setattr(integrator, "register", lambda: None)
+    assert integrator.path_tracer(8) == {"type": "pavonine_path", "max_depth": 8}
