@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import tempfile
 from collections.abc import Iterator
 
 
@@ -33,3 +34,30 @@ def silenced(*fds: int) -> Iterator[None]:
         for fd, copy in zip(fds, saved, strict=True):
             os.dup2(copy, fd)
             os.close(copy)
+
+
+@contextlib.contextmanager
+def captured(fd: int = 2) -> Iterator[list[str]]:
+    """What is written to descriptor ``fd`` inside the block (by native code: Dr.Jit's kernel
+    cache, Mitsuba's logger), as the list of its non-blank lines, filled when the block ends,
+    also when it raises. Python's streams are flushed first; where ``fd`` cannot be duplicated
+    nothing is captured."""
+    lines: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            stream.flush()
+    try:
+        saved = os.dup(fd)
+    except OSError:
+        yield lines
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), fd)
+        try:
+            yield lines
+        finally:
+            os.dup2(saved, fd)
+            os.close(saved)
+            sink.seek(0)
+            text = sink.read().decode("utf-8", errors="replace")
+            lines.extend(line for line in text.splitlines() if line.strip())

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import logging
+import sys
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -85,12 +87,15 @@ def render_pass(
 
     With ``trace_loops_once`` the pass is traced with ``JitFlag.OptimizeLoops`` off. With it on,
     Dr.Jit records a symbolic loop body again when the first recording shows state the loop never
-    changes (to drop it), and ``volpath`` nests its emitter-sampling loop in the path loop, so each
-    virtual call in them was traced up to four times; in a train every
+    changes (to drop it), and ``volpath`` (the path integrator before ``pavonine_path``) nests its
+    emitter-sampling loop in the path loop, so each virtual call in them was traced up to four
+    times; in a train every
     ``Shape::compute_surface_interaction`` call holds ~200 registered shapes, 196 of which
     (instances, shape groups) nest the same call again. Measured on the 192-feather train (64×48,
     1 spp): 3,940 → 1,182 such calls traced, 21–25 s → 6–10 s of tracing per pass, the kernel's
-    size and speed unchanged (177,944 → 177,808 IR operations), the image bitwise the same. Only
+    size and speed unchanged (177,944 → 177,808 IR operations), the image bitwise the same. With
+    ``pavonine_path``, one loop, it matters less: the same render took 6.6–7.0 s with the flag
+    off and 7.0–8.5 s with it on (whole call, scene build included, 94,906 IR operations). Only
     scenes with instances get it (where the trace is large): with the flag off, Dr.Jit 1.5.0
     emitted one callable twice in the LLVM module for a single textured emissive quad
     ("invalid redefinition of function func_…", then an abort of the process), a Dr.Jit bug.
@@ -101,7 +106,7 @@ def render_pass(
     gc.disable()
     try:
         optimize_loops = dr.scoped_set_flag(dr.JitFlag.OptimizeLoops, not trace_loops_once)
-        with _quiet_interrupt_log(mi), optimize_loops:
+        with _quiet_interrupt_log(mi), optimize_loops, _native_lines_as_warnings():
             image = mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed)
     except Exception as exc:
         if interrupted(exc):
@@ -123,6 +128,26 @@ def interrupted(exc: BaseException) -> bool:
         seen.add(id(current))
         current = current.__cause__ or current.__context__
     return False
+
+
+@contextlib.contextmanager
+def _native_lines_as_warnings() -> Iterator[None]:
+    """Lines that native code prints on stderr during a pass (Dr.Jit's "jit_kernel_write(): I/O
+    error ..." when its kernel cache cannot be written, on a full disk or under a file-size
+    limit) become ``pavonine`` warnings, so a command's stderr stays ``level: message`` lines.
+    On a terminal they are left as they are (progress bars draw there, from another thread)."""
+    from pavonine.native_output import captured
+
+    if sys.stderr is None or sys.stderr.isatty():
+        yield
+        return
+    lines: list[str] = []
+    try:
+        with captured(2) as lines:
+            yield
+    finally:
+        for line in lines:
+            logging.getLogger("pavonine").warning("%s", line)
 
 
 @contextlib.contextmanager

@@ -70,3 +70,58 @@ def test_a_pass_of_an_instanced_scene_traces_each_loop_body_once_and_restores_th
     render_pass(default, None, 0, None, 1, 0)
     assert (once.traced, default.traced) == (1, 2)
     assert dr.flag(dr.JitFlag.OptimizeLoops)
+
+
+class _NoisyMitsuba:
+    """Stands in for ``mitsuba`` in :func:`render_pass`: its ``render`` writes a line straight to
+    descriptor 2, as Dr.Jit does when it cannot write its kernel cache."""
+
+    def logger(self):
+        return None
+
+    def render(self, scene, sensor, integrator, spp, seed):
+        import os
+
+        import numpy as np
+
+        os.write(
+            2, b'jit_kernel_write(): I/O error while writing compiled kernel to cache file "x"\n'
+        )
+        return np.zeros((1, 1, 3))
+
+
+@pytest.mark.llvm
+def test_what_native_code_prints_during_a_pass_becomes_a_warning(capfd):
+    """A command's stderr is ``level: message`` lines: a native line printed during a pass (off a
+    terminal) comes out as a ``pavonine`` warning, not as raw text on descriptor 2."""
+    import logging
+
+    from pavonine.backend import select_variant
+
+    select_variant()
+    records: list[logging.LogRecord] = []
+    handler = logging.Handler()
+    handler.emit = records.append
+    logger = logging.getLogger("pavonine")
+    logger.addHandler(handler)
+    try:
+        render_pass(_NoisyMitsuba(), None, 0, None, 1, 0)
+    finally:
+        logger.removeHandler(handler)
+    assert [(r.levelname, r.getMessage()) for r in records] == [
+        ("WARNING", 'jit_kernel_write(): I/O error while writing compiled kernel to cache file "x"')
+    ]
+    assert "jit_kernel_write" not in capfd.readouterr().err
+
+
+def test_captured_gives_the_lines_and_puts_the_descriptor_back(capfd):
+    import os
+
+    from pavonine.native_output import captured
+
+    with pytest.raises(RuntimeError), captured(2) as lines:
+        os.write(2, b"one\n\ntwo\n")
+        raise RuntimeError("the block failed")
+    assert lines == ["one", "two"]
+    os.write(2, b"after\n")
+    assert capfd.readouterr().err == "after\n"
