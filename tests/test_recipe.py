@@ -154,6 +154,14 @@ def test_whole_float_layer_counts_are_accepted(tmp_path):
     assert (black.count, white.count) == (3, 7)
 
 
+def test_a_one_item_list_is_the_same_value_at_both_ends(tmp_path):
+    """``[x]`` is accepted like ``x`` (hypothesis found ``cortex = [-0.0]`` raising IndexError)."""
+    text = MINIMAL + "[material.class.0]\ncortex = [0.1]\n[material.class.0.long]\ncount = [5]\n"
+    cls = parse_recipe(_write(tmp_path, text)).material.classes[0]
+    assert cls.cortex == pytest.approx((0.1, 0.1))
+    assert (cls.long[0].count, cls.long[1].count) == (5, 5)
+
+
 def test_physical_mode_keys_reach_the_material(tmp_path):
     text = MINIMAL.replace('"paper-table1"', '"freyer2020"') + (
         'lattice = "rectangular"\nmelanin_dispersion = [1.7, 20000]\nmelanin_absorption = [0.3, 250]\n'

@@ -111,7 +111,8 @@ def test_what_native_code_prints_during_a_pass_becomes_a_warning(capfd):
     assert [(r.levelname, r.getMessage()) for r in records] == [
         ("WARNING", 'jit_kernel_write(): I/O error while writing compiled kernel to cache file "x"')
     ]
-    assert "jit_kernel_write" not in capfd.readouterr().err
+    raw = [line for line in capfd.readouterr().err.splitlines() if line.startswith("jit_")]
+    assert raw == []  # (a handler of the pavonine logger may print the warning itself)
 
 
 def test_captured_gives_the_lines_and_puts_the_descriptor_back(capfd):

@@ -241,7 +241,9 @@ def _check_count(path: Path, key: str, value: float) -> None:
 
 
 def _stack_end(value: Any, end: int) -> Any:
-    return value[end] if isinstance(value, list) else value
+    """A cell's value at the black (``end`` 0) or white (1) end: a number or a one-item list is
+    the same at both ends, a pair is [black, white]."""
+    return value[min(end, len(value) - 1)] if isinstance(value, list) else value
 
 
 def _parse_classes(path: Path, params: FeatherParameters, table: dict) -> FeatherParameters:
