@@ -146,7 +146,11 @@ def render_products(
     scene_dict.update(scene_objects(synced.shapes, emitters))
     gc.collect()  # see passes.render_pass
     try:
-        scene = mi.load_dict(scene_dict)
+        # Built in order, not on Mitsuba's thread pool: registry ids (which Dr.Jit writes into the
+        # kernel, e.g. the environment emitter's) then follow the dict, so the same stage traces
+        # the same kernel and finds it in Dr.Jit's disk cache. In parallel the train's sky got id 1
+        # or 2 from run to run (2 of 5 runs), each form an LLVM compile of its own.
+        scene = mi.load_dict(scene_dict, parallel=False)
     except Exception as exc:
         raise InputError(
             os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"

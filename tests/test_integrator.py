@@ -131,3 +131,24 @@ def test_scalar_variants_keep_volpath(monkeypatch):
     monkeypatch.setattr(mi, "variant", lambda: "llvm_ad_spectral")
     monkeypatch.setattr(integrator, "register", lambda: None)
     assert integrator.path_tracer(8) == {"type": "pavonine_path", "max_depth": 8}
+
+
+def test_the_scene_is_built_in_order_so_kernels_repeat(monkeypatch):
+    """Registry ids are literals in the traced kernel; built on Mitsuba's thread pool they follow
+    thread timing (the train's sky was emitter 1 or 2 from run to run), built in order they follow
+    the scene dict, and a stage renders with the kernel Dr.Jit cached for it."""
+    import mitsuba as mi
+
+    calls = []
+    load = mi.load_dict
+
+    def recording(description, *args, **kwargs):
+        if isinstance(description, dict) and description.get("type") == "scene":
+            calls.append(kwargs.get("parallel", True))
+        return load(description, *args, **kwargs)
+
+    monkeypatch.setattr(mi, "load_dict", recording)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        api.render_stage(str(SCENES / "light_dome.usda"), spp=1, resolution=(8, 6), progress=False)
+    assert calls == [False]
