@@ -15,8 +15,9 @@ through the back of every single-sided card).
 
 from __future__ import annotations
 
+from pavonine.render.plugins import register_once
+
 PLUGIN_NAME = "pavonine_front_only"
-_registered: set[str] = set()
 
 
 def _plugin_class():
@@ -85,14 +86,7 @@ def _plugin_class():
 
 def register() -> None:
     """Register the BSDF plugin with Mitsuba (once per variant)."""
-    import mitsuba as mi
-
-    variant = mi.variant()
-    if variant in _registered:
-        return
-    cls = _plugin_class()
-    mi.register_bsdf(PLUGIN_NAME, lambda props: cls(props))
-    _registered.add(variant)
+    register_once(PLUGIN_NAME, "bsdf", _plugin_class)
 
 
 def cull_back_faces(bsdf: dict | object) -> dict:

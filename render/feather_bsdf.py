@@ -40,6 +40,7 @@ from pavonine.materials.brdf import (
 )
 from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import STACK_QUANTITIES, FeatherParameters
+from pavonine.render.plugins import register_once
 
 PLUGIN_NAME = "pavonine_feather"
 BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
@@ -459,18 +460,7 @@ def _plugin_class(variant: str):
     return FeatherBSDF
 
 
-_registered: set[str] = set()
-
-
 def register() -> None:
     """Register the ``pavonine_feather`` BSDF with Mitsuba for the active (or default) variant."""
     backend = select_variant()
-    if backend.variant in _registered:
-        return
-    import mitsuba as mi
-
-    cls = _plugin_class(backend.variant)
-    mi.register_bsdf(PLUGIN_NAME, lambda props: cls(props))
-    # Once per variant: registering again replaces the plugin's class object in Mitsuba while
-    # BSDFs made from the old registration are still alive (a crash at render time).
-    _registered.add(backend.variant)
+    register_once(PLUGIN_NAME, "bsdf", lambda: _plugin_class(backend.variant))

@@ -33,8 +33,9 @@ none); scalar variants keep ``volpath`` (a Python integrator is called per sampl
 
 from __future__ import annotations
 
+from pavonine.render.plugins import register_once
+
 PLUGIN_NAME = "pavonine_path"
-_registered: set[str] = set()
 
 
 def mis_weight(pdf_a, pdf_b):
@@ -175,14 +176,7 @@ def _plugin_class():
 
 def register() -> None:
     """Register the integrator with Mitsuba (once per variant)."""
-    import mitsuba as mi
-
-    variant = mi.variant()
-    if variant in _registered:
-        return
-    cls = _plugin_class()
-    mi.register_integrator(PLUGIN_NAME, lambda props: cls(props))
-    _registered.add(variant)
+    register_once(PLUGIN_NAME, "integrator", _plugin_class)
 
 
 def path_tracer(max_depth: int) -> dict:
