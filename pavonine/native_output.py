@@ -17,9 +17,7 @@ def silenced(*fds: int) -> Iterator[None]:
     lost. Where a descriptor cannot be duplicated (no stdout or stderr at all) the block runs
     as it is."""
     fds = fds or (1, 2)
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(AttributeError, OSError, ValueError):
-            stream.flush()
+    _flush_python_streams()
     try:
         saved = [os.dup(fd) for fd in fds]
     except OSError:  # nothing to keep clean
@@ -43,9 +41,7 @@ def captured(fd: int = 2) -> Iterator[list[str]]:
     also when it raises. Python's streams are flushed first; where ``fd`` cannot be duplicated
     nothing is captured."""
     lines: list[str] = []
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(AttributeError, OSError, ValueError):
-            stream.flush()
+    _flush_python_streams()
     try:
         saved = os.dup(fd)
     except OSError:
@@ -61,3 +57,10 @@ def captured(fd: int = 2) -> Iterator[list[str]]:
             sink.seek(0)
             text = sink.read().decode("utf-8", errors="replace")
             lines.extend(line for line in text.splitlines() if line.strip())
+
+
+def _flush_python_streams() -> None:
+    """Write out what Python buffered for stdout and stderr before their descriptors move."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            stream.flush()

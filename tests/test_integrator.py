@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import math
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, UsdGeom, UsdShade
+from test_render_geometry_images import SIZE, lit_stage
 
 from pavonine.pipeline.compare.methods import stat_test
 from pavonine.render import api
@@ -16,7 +16,7 @@ from pavonine.render.diagnostics import StageWarning
 
 pytestmark = pytest.mark.render
 SCENES = Path(__file__).resolve().parents[1] / "assets" / "scenes"
-CARD_VIEW = (48, 48)  # pixels of card_over_floor's square view, as strips() reads them
+CARD_VIEW = (SIZE, SIZE)  # pixels of card_over_floor's square view, as strips() reads them
 
 
 def render(stage_path, tracer: str, spp: int = 32, size=(64, 48)):
@@ -46,18 +46,7 @@ def card_over_floor(path: Path, opacity: float) -> Path:
     """A white floor, a card of ``opacity`` (UsdPreviewSurface, ``presence``) 1 unit above it, an
     orthographic camera looking down and a sun 30° off the vertical (the card's shadow lands
     0.58 units aside, where the camera sees the floor directly)."""
-    stage = Usd.Stage.CreateNew(str(path))
-    cam = UsdGeom.Camera.Define(stage, "/Cam")
-    cam.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
-    cam.CreateHorizontalApertureAttr(30.0)  # tenths of a unit: [-1.5, 1.5]²
-    cam.CreateVerticalApertureAttr(30.0)
-    cam.CreateClippingRangeAttr(Gf.Vec2f(0.1, 100))
-    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, 10))
-    sun = UsdLux.DistantLight.Define(stage, "/Sun")
-    sun.CreateAngleAttr(0.0)
-    sun.CreateIntensityAttr(math.pi)
-    sun.CreateNormalizeAttr(True)
-    sun.AddRotateXOp().Set(30.0)
+    stage = lit_stage(path, sun_tilt=30.0)
     for name, z, size in (("Floor", 0.0, 2.0), ("Card", 1.0, 0.5)):
         mesh = UsdGeom.Mesh.Define(stage, f"/{name}")
         mesh.CreatePointsAttr(
