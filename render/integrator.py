@@ -7,7 +7,7 @@ through null surfaces, once for media and once for surfaces in each, all traced 
 no media), so the 192-feather train's trace held ~500 MiB and took seconds per pass. Here the
 shadow ray is a *state* of the one path loop: an iteration either extends the path or advances
 its pending shadow ray, and both intersect through the same call (the train's kernel: 94,906 IR
-operations against ``volpath``'s 177,808; README, benchmark notes).
+operations against ``volpath``'s 177,808; docs/performance.md).
 
 What it computes is ``volpath``'s estimator without media (Mitsuba 3.9.1,
 ``src/integrators/volpath.cpp``), step for step:
