@@ -8,6 +8,9 @@ _arm_if_console()
 
 __version__ = "0.1.0"
 
+#: The logger every part of Pavonine reports through (the command line prints it on stderr).
+LOGGER_NAME = "pavonine"
+
 # Register the USD schema plugin (PavonineFeatherAPI) before any stage or schema registry exists:
 # USD ignores schemas registered afterwards. Now if pxr is already imported, else as soon as it is
 # (pavonine.usd_import), so that `import pavonine` does not load USD itself.

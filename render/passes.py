@@ -22,6 +22,8 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from pavonine import LOGGER_NAME
+
 #: Samples per pass at most. Each pass is one ``mi.render`` call, which traces and generates the
 #: whole path tracer again; the trace grows with the scene's virtual-call targets (every
 #: ``instance`` of a train is one), so passes are few: the 192-feather train at 256×192 × 16 spp
@@ -147,7 +149,7 @@ def _native_lines_as_warnings() -> Iterator[None]:
             yield
     finally:
         for line in lines:
-            logging.getLogger("pavonine").warning("%s", line)
+            logging.getLogger(LOGGER_NAME).warning("%s", line)
 
 
 @contextlib.contextmanager

@@ -39,6 +39,7 @@ from typing import Any
 
 import click
 
+from pavonine import LOGGER_NAME
 from pavonine.backend import debian_hint, first_import_error
 from pavonine.pipeline.cli.values import FiniteFloat
 from pavonine.pipeline.convert.meshing import check_filters, meshing_backend
@@ -46,7 +47,7 @@ from pavonine.pipeline.errors import InputError, atomic_path
 
 F = Callable[..., Any]
 
-LOGGER = "pavonine"
+LOGGER = LOGGER_NAME
 log = logging.getLogger(LOGGER)
 
 _VERBOSITY = "pavonine.verbosity"

@@ -19,6 +19,7 @@ import os
 from dataclasses import dataclass
 from types import ModuleType
 
+from pavonine import LOGGER_NAME
 from pavonine.backend import debian_hint, first_import_error
 from pavonine.native_output import silenced
 
@@ -80,7 +81,7 @@ def meshing_backend() -> MeshingBackend:
     if choice == "pymeshlab":
         raise MeshingUnavailable(f"{error} ({MESHING_ENV}=pymeshlab)")
     reason = f"pymeshlab cannot load: {error}{debian_hint(error)}"
-    logging.getLogger("pavonine").warning(
+    logging.getLogger(LOGGER_NAME).warning(
         "meshing with NumPy instead of pymeshlab (same checks; the decimated LODs differ a "
         "little): %s",
         reason,
