@@ -68,7 +68,7 @@ def installed(tmp_path_factory) -> tuple[Path, dict]:
     source = tracked_copy(work / "src")
     built = run(
         sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-        "--disable-pip-version-check", "-q", "-w", work / "dist", source, cwd=work,
+        "--disable-pip-version-check", "-v", "-w", work / "dist", source, cwd=work,
     )  # fmt: skip
     assert built.returncode == 0, built.stderr
     [wheel] = list((work / "dist").glob("pavonine-*.whl"))
@@ -90,7 +90,20 @@ def installed(tmp_path_factory) -> tuple[Path, dict]:
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "PXR_", "OCIO"))}
     env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
     (work / "elsewhere").mkdir()
-    return wheel, {"venv": venv, "env": env, "cwd": work / "elsewhere"}
+    return wheel, {
+        "venv": venv,
+        "env": env,
+        "cwd": work / "elsewhere",
+        "build_log": built.stdout + built.stderr,
+    }
+
+
+def test_the_build_lists_every_data_folder_as_a_package(installed):
+    """setuptools warns, once per folder, about package-data folders missing from ``packages``
+    (and says a later version may leave their files out); setup.py lists them."""
+    _, where = installed
+    assert "Building wheel for pavonine" in where["build_log"]  # -v shows the backend's output
+    assert "is absent from the `packages` configuration" not in where["build_log"]
 
 
 def test_wheel_carries_the_shipped_data_and_the_licence(installed):
