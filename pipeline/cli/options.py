@@ -47,8 +47,7 @@ from pavonine.pipeline.errors import InputError, atomic_path
 
 F = Callable[..., Any]
 
-LOGGER = LOGGER_NAME
-log = logging.getLogger(LOGGER)
+log = logging.getLogger(LOGGER_NAME)
 
 _VERBOSITY = "pavonine.verbosity"
 _JSON_STDOUT = "pavonine.json_stdout"
@@ -211,7 +210,7 @@ def configure_logging(level_offset: int = 0) -> None:
     per record, so that logs stay greppable.
     """
     level = logging.INFO - 10 * max(-2, min(1, level_offset))
-    logger = logging.getLogger(LOGGER)
+    logger = logging.getLogger(LOGGER_NAME)
     for handler in list(logger.handlers):
         logger.removeHandler(handler)
     if sys.stderr.isatty():
