@@ -28,17 +28,15 @@ from pavonine.pipeline.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
 from pavonine.render import instance_primvars, lights
-from pavonine.render import integrator as path_integrator
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
+from pavonine.render.integrator_settings import DEFAULT_SPP
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.render.passes import render_passes
 from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
 
 __all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
-
-MAX_DEPTH = 8
 
 
 @dataclass
@@ -78,8 +76,8 @@ def render_stage(
 ) -> RenderResult:
     """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
 
-    ``options`` are :func:`render_products`' (``spp``, ``resolution``, ``seed``, ``camera``,
-    ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
+    ``options`` are :func:`render_products`' (``spp``, ``max_depth``, ``resolution``, ``seed``,
+    ``camera``, ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
     """
     chosen = [product] if product else None
     return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
@@ -88,7 +86,8 @@ def render_stage(
 def render_products(
     stage_path: str | os.PathLike,
     *,
-    spp: int,
+    spp: int | None = None,
+    max_depth: int | None = None,
     resolution: tuple[int, int] | None = None,
     seed: int = 0,
     camera: str | None = None,
@@ -103,13 +102,17 @@ def render_products(
     """Render every product of the stage's render settings (or the ones at ``products``).
 
     ``resolution`` and ``camera`` override every product's; a stage without settings renders one
-    beauty image. Warnings are shared by all results. ``limits`` (:mod:`.limits`) are checked
-    before the stage is translated: image sizes and ``spp`` first, instance counts as instancers
-    are met. An image with NaN or infinite pixels is an :class:`InputError`, never a result.
+    beauty image. ``spp`` defaults to the settings' ``mitsuba:sample_count``, else
+    :data:`DEFAULT_SPP`; ``max_depth`` (-1: no limit) overrides the settings' integrator
+    (:mod:`.integrator_settings`). Warnings are shared by all results. ``limits``
+    (:mod:`.limits`) are checked before the stage is translated: image sizes and ``spp`` first,
+    instance counts as instancers are met. An image with NaN or infinite pixels is an
+    :class:`InputError`, never a result.
     """
-    limits.check_spp(spp, "spp")
-    if moments and spp < 2:
-        raise InputError("spp", "moments need at least 2 samples per pixel")
+    if spp is not None:
+        _check_spp(spp, moments, limits)
+    if max_depth is not None and max_depth < -1:
+        raise InputError("max_depth", f"must be -1 (no limit) or at least 0, got {max_depth}")
     if resolution is not None:
         if len(resolution) != 2:
             raise InputError("resolution", f"must be two positive integers, got {resolution}")
@@ -123,6 +126,9 @@ def render_products(
     stage = open_stage(stage_path, diag)
     time_code = render_time(stage, time)
     settings = read_render_settings(stage, diag)
+    if spp is None:
+        spp = settings.sample_count or DEFAULT_SPP
+        _check_spp(spp, moments, limits, f"{stage_path}: {settings.path}.mitsuba:sample_count")
     chosen = choose_products(settings.products, products, first_only)
     for product in chosen:
         check_product_size(product, resolution, settings.path, limits)
@@ -157,7 +163,8 @@ def render_products(
         ) from None
     instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
 
-    path_tracer = path_integrator.path_tracer(MAX_DEPTH)
+    integrator_spec = settings.integrator.with_max_depth(max_depth)
+    path_tracer = integrator_spec.mitsuba_dict()
     results = []
     with _progress(stage_path, jobs, spp, progress) as advance:
         for index, job in enumerate(jobs):
@@ -181,6 +188,7 @@ def render_products(
                 "stage": os.fspath(stage_path),
                 "variant": backend.variant,
                 "spp": int(spp),
+                "integrator": integrator_spec.describe(),
                 "seed": int(seed),
                 "resolution": [int(width), int(height)],
                 "camera": job.camera or "(framing camera)",
@@ -211,6 +219,12 @@ def render_products(
         result.metadata["seconds"] = seconds
         result.warnings = list(diag.messages)
     return results
+
+
+def _check_spp(spp: int, moments: bool, limits: RenderLimits, where: str = "spp") -> None:
+    limits.check_spp(spp, where)
+    if moments and spp < 2:
+        raise InputError(where, "moments need at least 2 samples per pixel")
 
 
 def choose_products(

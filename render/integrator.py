@@ -22,7 +22,9 @@ What it computes is ``volpath``'s estimator without media (Mitsuba 3.9.1,
   the last scattering vertex; ``max_depth`` counts scattering vertices, ``rr_depth`` starts
   Russian roulette with continuation probability ``min(max(β)·η², 0.95)``;
 * the sample is valid (film alpha) once a non-null scattering happened or when the scene has
-  an environment emitter.
+  an environment emitter;
+* ``max_depth`` -1 is no limit and 0 renders nothing; ``hide_emitters`` hides emitters from
+  camera rays, which pass through area lights (``volpath``'s ``skip_area_emitters``).
 
 Random numbers are drawn in ``volpath``'s order (roulette, light, BSDF), so with one seed the
 two images nearly coincide; ``tests/test_integrator.py`` compares them with different seeds by
@@ -58,25 +60,37 @@ def _plugin_class():
 
         def __init__(self, props: mi.Properties):
             mi.SamplingIntegrator.__init__(self, props)
-            self.max_depth = int(props.get("max_depth", 8))
+            self.depth_limit = int(props.get("max_depth", 8))
             self.rr_depth = int(props.get("rr_depth", 5))
-            if self.max_depth < 1 or self.rr_depth < 1:
-                raise ValueError("max_depth and rr_depth must be at least 1")
+            self.hide_emitters = bool(props.get("hide_emitters", False))
+            if self.depth_limit < -1:
+                raise ValueError("max_depth must be -1 (no limit) or at least 0")
+            if self.rr_depth < 1:
+                raise ValueError("rr_depth must be at least 1")
+            # -1 is Mitsuba's "no limit": the largest depth a UInt32 holds.
+            self.max_depth = self.depth_limit if self.depth_limit >= 0 else 0xFFFFFFFF
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            if self.max_depth == 0:  # volpath: nothing, not even emitters, at depth 0
+                return mi.Spectrum(0.0), mi.Bool(False), []
+            return self.trace(scene, sampler, ray, active)
 
         @dr.syntax
-        def sample(self, scene, sampler, ray, medium=None, active=True):
+        def trace(self, scene, sampler, ray, active):
+            """The path loop of :meth:`sample` (module docstring)."""
             import drjit as dr  # dr.syntax recompiles the body without the enclosing scope
             import mitsuba as mi
 
             ctx = mi.BSDFContext()
             ray = mi.Ray3f(ray)
+            hide = self.hide_emitters
             has_env = scene.environment() is not None
             result = mi.Spectrum(0.0)
             throughput = mi.Spectrum(1.0)
             eta = mi.Float(1.0)
             depth = mi.UInt32(0)
-            valid = mi.Bool(has_env) & mi.Bool(active)
-            specular_chain = mi.Bool(active)
+            valid = mi.Bool(has_env and not hide) & mi.Bool(active)
+            specular_chain = mi.Bool(active) & mi.Bool(not hide)
             last_event = dr.zeros(mi.Interaction3f)
             last_pdf = mi.Float(1.0)
             walking = mi.Bool(active)  # the path goes on
@@ -118,6 +132,13 @@ def _plugin_class():
                 # ---- path step: emission found by the path's ray.
                 emitter = si.emitter(scene)
                 lit = stepping & (emitter != None)  # noqa: E711 (a Dr.Jit pointer array)
+                if dr.hint(hide, mode="scalar"):
+                    # hide_emitters (volpath): a camera ray sees no emitter and passes through
+                    # area lights, neither scattering nor counting a bounce.
+                    lit &= depth != 0
+                    passing = stepping & (depth == 0) & si.is_valid() & (emitter != None)  # noqa: E711
+                    ray[passing] = si.spawn_ray(current.d)
+                    stepping &= ~passing
                 ds = mi.DirectionSample3f(scene, si, last_event)
                 emitter_pdf = scene.pdf_emitter_direction(last_event, ds, lit & ~specular_chain)
                 weight = dr.select(specular_chain, 1.0, mis_weight(last_pdf, emitter_pdf))
@@ -162,6 +183,8 @@ def _plugin_class():
                 specular_chain[scattered & delta] = True
                 specular_chain[stepping & mi.has_flag(bs.sampled_type, mi.BSDFFlags.Smooth)] = False
                 walking = dr.select(was_shadow, walking, stepping)
+                if dr.hint(hide, mode="scalar"):
+                    walking |= ~was_shadow & passing
 
             return result, valid, []
 
@@ -169,7 +192,10 @@ def _plugin_class():
             return []
 
         def to_string(self):
-            return f"PavoninePath[max_depth={self.max_depth}, rr_depth={self.rr_depth}]"
+            return (
+                f"PavoninePath[max_depth={self.depth_limit}, rr_depth={self.rr_depth}, "
+                f"hide_emitters={self.hide_emitters}]"
+            )
 
     return PavoninePath
 
@@ -179,12 +205,13 @@ def register() -> None:
     register_once(PLUGIN_NAME, "integrator", _plugin_class)
 
 
-def path_tracer(max_depth: int) -> dict:
+def path_tracer(max_depth: int, rr_depth: int = 5, hide_emitters: bool = False) -> dict:
     """The path tracer's Mitsuba dict for the active variant: ``pavonine_path`` in JIT variants,
-    Mitsuba's ``volpath`` in scalar ones (module docstring)."""
+    Mitsuba's ``volpath`` in scalar ones (module docstring). ``max_depth`` -1: no limit."""
     import mitsuba as mi
 
+    params = {"max_depth": max_depth, "rr_depth": rr_depth, "hide_emitters": hide_emitters}
     if not mi.variant().startswith(("llvm_", "cuda_")):
-        return {"type": "volpath", "max_depth": max_depth}
+        return {"type": "volpath", **params}
     register()
-    return {"type": PLUGIN_NAME, "max_depth": max_depth}
+    return {"type": PLUGIN_NAME, **params}

@@ -23,6 +23,12 @@ from pxr import Usd, UsdRender
 from pavonine.limits import check_pixel_count
 from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.integrator_settings import (
+    IntegratorSpec,
+    is_honoured,
+    read_integrator,
+    read_sample_count,
+)
 
 DEFAULT_RESOLUTION = (512, 512)
 HONOURED = {
@@ -102,6 +108,8 @@ class RenderSettingsSpec:
     conform: str = "expandAperture"
     path: str | None = None
     products: list[ProductSpec] = field(default_factory=list)
+    integrator: IntegratorSpec = field(default_factory=IntegratorSpec)  # hdmitsuba's settings
+    sample_count: int | None = None  # ``mitsuba:sample_count`` (None: not authored)
 
 
 def find_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
@@ -121,7 +129,7 @@ def read_render_settings(stage: Usd.Stage, diag: Diagnostics) -> RenderSettingsS
     if settings is None:
         return RenderSettingsSpec(products=[ProductSpec()])
     base = _read_base(settings, ProductSpec(), diag)
-    _audit(settings.GetPrim(), diag)
+    _audit(settings.GetPrim(), diag, reads_mitsuba=True)
     _check_purposes(settings, diag)
     products = []
     for target in settings.GetProductsRel().GetForwardedTargets():
@@ -142,6 +150,8 @@ def read_render_settings(stage: Usd.Stage, diag: Diagnostics) -> RenderSettingsS
         conform=first.conform,
         path=str(settings.GetPath()),
         products=products,
+        integrator=read_integrator(settings.GetPrim(), diag),
+        sample_count=read_sample_count(settings.GetPrim()),
     )
 
 
@@ -217,8 +227,10 @@ def _check_purposes(settings: UsdRender.Settings, diag: Diagnostics) -> None:
             )
 
 
-def _audit(prim: Usd.Prim, diag: Diagnostics) -> None:
-    """Warn about the prim's authored UsdRender attributes that are not honoured."""
+def _audit(prim: Usd.Prim, diag: Diagnostics, reads_mitsuba: bool = False) -> None:
+    """Warn about the prim's authored UsdRender attributes that are not honoured, and its
+    ``mitsuba:`` ones but those :mod:`.integrator_settings` reads (``reads_mitsuba``: on the
+    RenderSettings prim only)."""
     definition = prim.GetPrimDefinition()
     for name in definition.GetPropertyNames():
         if name in HONOURED:
@@ -233,12 +245,15 @@ def _audit(prim: Usd.Prim, diag: Diagnostics) -> None:
             continue
         diag.warn(str(prim.GetPath()), f"{name} = {value!r} is not supported; ignored")
     for name in prim.GetPropertyNames():
-        if name.startswith("mitsuba:"):
-            diag.warn(
-                str(prim.GetPath()),
-                f"{name} (hdmitsuba's setting) is ignored: Pavonine renders spectrally; "
-                "choose a variant with --variant",
-            )
+        if not name.startswith("mitsuba:") or (reads_mitsuba and is_honoured(name)):
+            continue
+        if name == "mitsuba:variant":
+            reason = "Pavonine renders spectrally; choose a variant with --variant"
+        elif is_honoured(name):
+            reason = "read on the RenderSettings prim only"
+        else:
+            reason = "not supported"
+        diag.warn(str(prim.GetPath()), f"{name} (hdmitsuba's setting) is ignored: {reason}")
 
 
 def _equal(value: Any, fallback: Any) -> bool:

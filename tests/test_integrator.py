@@ -11,7 +11,7 @@ from pxr import Gf, Sdf, UsdGeom, UsdShade
 from test_render_geometry_images import SIZE, lit_stage
 
 from pavonine.pipeline.compare.methods import stat_test
-from pavonine.render import api
+from pavonine.render import api, integrator
 from pavonine.render.diagnostics import StageWarning
 
 pytestmark = pytest.mark.render
@@ -23,9 +23,13 @@ def render(stage_path, tracer: str, spp: int = 32, size=(64, 48)):
     """(mean, variance) of a moments render with ``tracer``: ours, or a Mitsuba integrator. Ours
     gets seed 1, Mitsuba's seed 0: both draw their random numbers in the same order, so with one
     seed the two would share their noise and a comparison would not be a two-sample test."""
-    original = api.path_integrator.path_tracer
+    original = integrator.path_tracer
     if tracer != "pavonine_path":
-        api.path_integrator.path_tracer = lambda depth: {"type": tracer, "max_depth": depth}
+        integrator.path_tracer = lambda depth, **params: {
+            "type": tracer,
+            "max_depth": depth,
+            **params,
+        }
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", StageWarning)
@@ -38,7 +42,7 @@ def render(stage_path, tracer: str, spp: int = 32, size=(64, 48)):
                 seed=1 if tracer == "pavonine_path" else 0,
             )
     finally:
-        api.path_integrator.path_tracer = original
+        integrator.path_tracer = original
     return result.rgb, result.variance
 
 
@@ -113,13 +117,12 @@ def test_scalar_variants_keep_volpath(monkeypatch):
     """A Python integrator is called per sample in a scalar variant: those keep Mitsuba's."""
     import mitsuba as mi
 
-    from pavonine.render import integrator
-
+    params = {"max_depth": 8, "rr_depth": 5, "hide_emitters": False}
     monkeypatch.setattr(mi, "variant", lambda: "scalar_spectral")
-    assert integrator.path_tracer(8) == {"type": "volpath", "max_depth": 8}
+    assert integrator.path_tracer(8) == {"type": "volpath", **params}
     monkeypatch.setattr(mi, "variant", lambda: "llvm_ad_spectral")
     monkeypatch.setattr(integrator, "register", lambda: None)
-    assert integrator.path_tracer(8) == {"type": "pavonine_path", "max_depth": 8}
+    assert integrator.path_tracer(8) == {"type": "pavonine_path", **params}
 
 
 def test_the_scene_is_built_in_order_so_kernels_repeat(monkeypatch):

@@ -32,6 +32,7 @@ from pavonine.pipeline.cli.values import SEED, FiniteFloat
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.pipeline.farm.jobs import RenderJob, View
 from pavonine.pipeline.farm.options import farm_options
+from pavonine.render.integrator_settings import DEFAULT_SPP
 from pavonine.render.limits import RenderLimits
 
 _PATH_OR_NULL = {"type": ["string", "null"]}
@@ -130,7 +131,17 @@ JSON_SCHEMA = {
     help="Also write the display PNG, to FILE.png (implies --png; one image only).",
 )
 @click.option(
-    "--spp", type=click.IntRange(min=1), default=64, show_default=True, help="Samples per pixel."
+    "--spp",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Samples per pixel [default: the RenderSettings' mitsuba:sample_count, else 64].",
+)
+@click.option(
+    "--max-depth",
+    type=click.IntRange(min=-1),
+    default=None,
+    help="Longest path, in scattering vertices (-1: no limit; 1: emitters seen directly; 2: "
+    "direct light) [default: the RenderSettings' mitsuba:integrator:max_depth, else 8].",
 )
 @click.option(
     "--resolution",
@@ -174,7 +185,8 @@ def render(
     output: Path | None,
     png: bool,
     png_out: Path | None,
-    spp: int,
+    spp: int | None,
+    max_depth: int | None,
     resolution: str | None,
     cameras: tuple[str, ...],
     products: tuple[str, ...],
@@ -213,7 +225,8 @@ def render(
 
     # Everything the user typed is checked before the (possibly long) render.
     size = None if resolution is None else parse_resolution(resolution)
-    limits.check_spp(spp)
+    if spp is not None:
+        limits.check_spp(spp)
     if size is not None:
         limits.check_resolution(size, "--resolution")
     if output is not None and output.suffix.lower() != ".exr":
@@ -221,7 +234,11 @@ def render(
     if png_out is not None and png_out.suffix.lower() != ".png":
         raise InputError(f"--png-out {png_out}", "must name a .png file")
     png = png or png_out is not None
-    views = farm.render_views(stage, products, cameras)
+    settings = farm.stage_settings(stage)
+    if spp is None:
+        spp = settings.sample_count or DEFAULT_SPP
+        limits.check_spp(spp, f"{stage}: {settings.path}.mitsuba:sample_count")
+    views = farm.render_views(settings, products, cameras)
     if farm.needs_farm(frames, turntable, workers, scheduler, split, cameras):
         batch = farm.plan_batch(
             stage, views, output, png, png_out, size, frames, turntable, variance, workers,
@@ -232,6 +249,7 @@ def render(
         report = farm.render_batch(
             stage, batch, spp=spp, workers=workers, scheduler=scheduler, split=split, seed=seed,
             variant=variant, display=display, on_image=_show_with_warnings, limits=limits,
+            max_depth=max_depth,
         )  # fmt: skip
     else:
         from pavonine.pipeline.farm.jobs import plan
@@ -251,7 +269,7 @@ def render(
             check_writable(path)
         report = _render_here(
             stage, views, jobs, spp=spp, size=size, time=time_, seed=seed, variant=variant,
-            variance=variance, display=display, limits=limits,
+            variance=variance, display=display, limits=limits, max_depth=max_depth,
         )  # fmt: skip
     images = report["images"]
     emit_json(
@@ -302,6 +320,7 @@ def _render_here(
     variance: bool,
     display,
     limits: RenderLimits,
+    max_depth: int | None,
 ) -> dict[str, Any]:
     """Every view at one time code in this process: one Mitsuba scene, a sensor per product."""
     from pavonine.backend import BackendWarning
@@ -315,6 +334,7 @@ def _render_here(
         results = render_products(
             stage,
             spp=spp,
+            max_depth=max_depth,
             resolution=size,
             seed=seed,
             camera=views[0].camera,

@@ -18,9 +18,24 @@ from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 
 if TYPE_CHECKING:
     from pavonine.materials.display import DisplayTransform
+    from pavonine.render.settings import RenderSettingsSpec
 
 
-def render_views(stage: Path, products: tuple[str, ...], cameras: tuple[str, ...]) -> list[View]:
+def stage_settings(stage: Path) -> RenderSettingsSpec:
+    """The stage's render settings, read before rendering (quietly: the render itself warns)."""
+    from pavonine.render.delegate import open_stage
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.settings import read_render_settings
+
+    diag = Diagnostics()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return read_render_settings(open_stage(stage, diag), diag)
+
+
+def render_views(
+    settings: RenderSettingsSpec, products: tuple[str, ...], cameras: tuple[str, ...]
+) -> list[View]:
     """What to render, before rendering: every RenderProduct of the stage's settings (or those
     ``--product`` names; a stage without products: one view), each through its own camera or,
     for every ``--camera`` given, through that one.
@@ -30,14 +45,7 @@ def render_views(stage: Path, products: tuple[str, ...], cameras: tuple[str, ...
     (``Tall.CamB``); only the first camera's view of a product keeps its ``productName``.
     """
     from pavonine.render.api import choose_products
-    from pavonine.render.delegate import open_stage
-    from pavonine.render.diagnostics import Diagnostics
-    from pavonine.render.settings import read_render_settings
 
-    diag = Diagnostics()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the render itself warns, once
-        settings = read_render_settings(open_stage(stage, diag), diag)
     chosen = choose_products(settings.products, list(products) or None, False)
     views = []
     for i, product in enumerate(chosen):
@@ -141,6 +149,7 @@ def render_batch(
     display: DisplayTransform,
     on_image,
     limits: RenderLimits = DEFAULT_LIMITS,
+    max_depth: int | None = None,
 ) -> dict[str, Any]:
     """Run a planned farm call (see :mod:`pavonine.pipeline.farm`); returns its report fields."""
     from pavonine.backend import thread_count
@@ -163,8 +172,9 @@ def render_batch(
             workers = 0
     use_cluster = scheduler is not None or (workers or 0) > 0
     options = dict(
-        spp=spp, seed=seed, variant=variant, display=display, on_image=on_image, limits=limits
-    )
+        spp=spp, seed=seed, variant=variant, display=display, on_image=on_image, limits=limits,
+        max_depth=max_depth,
+    )  # fmt: skip
     try:
         if use_cluster:
             with open_cluster(workers, scheduler, threads=thread_count()) as cluster:

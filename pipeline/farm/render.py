@@ -62,6 +62,7 @@ def make_tasks(
     variant: str | None,
     threads: int | None,
     limits: RenderLimits = DEFAULT_LIMITS,
+    max_depth: int | None = None,
 ) -> list[RenderTask]:
     """Every task of a batch; stage contents are hashed here, once per stage."""
     from pavonine import __version__
@@ -88,6 +89,7 @@ def make_tasks(
                     variant=variant,
                     threads=threads,
                     limits=limits,
+                    max_depth=max_depth,
                     version=__version__,
                     job=index,
                     shard=k,
@@ -201,6 +203,7 @@ def run_batch(
     progress: bool = True,
     on_image: Callable[[dict[str, Any]], None] | None = None,
     limits: RenderLimits = DEFAULT_LIMITS,
+    max_depth: int | None = None,
 ) -> BatchReport:
     """Render ``jobs`` (module docstring); ``cluster`` from :func:`~.cluster.open_cluster`, or
     ``None`` to render one task after another in this process."""
@@ -217,8 +220,9 @@ def run_batch(
     started = time.perf_counter()
     threads = None if cluster is None else cluster.threads_per_render
     tasks = make_tasks(
-        jobs, spp=spp, seed=seed, shards=shards, variant=variant, threads=threads, limits=limits
-    )
+        jobs, spp=spp, seed=seed, shards=shards, variant=variant, threads=threads, limits=limits,
+        max_depth=max_depth,
+    )  # fmt: skip
     per_job: dict[int, list[RenderShard]] = {}
     needed = {i: sum(1 for t in tasks if t.job == i) for i in range(len(jobs))}
     report = BatchReport(

@@ -55,6 +55,7 @@ class RenderTask:
     variant: str | None = None
     threads: int | None = None
     limits: RenderLimits = DEFAULT_LIMITS  # the client's render ceilings (--max-…)
+    max_depth: int | None = None  # --max-depth (None: the stage's integrator settings)
     version: str = ""
     job: int = 0
     shard: int = 0
@@ -149,6 +150,7 @@ def render_task(task: RenderTask) -> RenderShard:
             result = render_stage(
                 task.stage,
                 spp=task.spp,
+                max_depth=task.max_depth,
                 resolution=task.resolution,
                 seed=task.seed,
                 camera=task.camera,

@@ -1,0 +1,173 @@
+"""The stage's integrator and samples per pixel: hdmitsuba's ``mitsuba:`` render settings.
+
+google/hdmitsuba (``usd_mitsuba/translator.py``) reads the ``RenderSettings`` prim's attributes
+``mitsuba:integrator:<key>`` as the Mitsuba integrator's dictionary (``type`` required once any
+is authored; ``path`` without them) and ``mitsuba:sample_count`` as the samples per pixel, so a
+stage made for it says how it wants to be rendered. Pavonine honours what keeps its images
+spectral and unbiased:
+
+* ``type`` ``path``, ``volpath`` or ``pavonine_path``: Pavonine's path tracer
+  (:mod:`.integrator`, ``volpath``'s estimator; Mitsuba's ``path`` differs only in stopping
+  shadow rays at null surfaces) with ``max_depth`` (-1: no limit, Mitsuba's convention),
+  ``rr_depth`` and ``hide_emitters``;
+* ``type`` ``direct``: Mitsuba's ``direct`` integrator with ``shading_samples`` or
+  ``emitter_samples`` / ``bsdf_samples``, and ``hide_emitters``;
+* ``mitsuba:sample_count``: the samples per pixel when the caller gives none.
+
+Another ``type`` is rendered by the path tracer and another key ignored, each with a warning
+naming it; a value of the wrong kind or out of Mitsuba's range is an :class:`InputError` naming
+the layer and the attribute. ``mitsuba:variant`` is warned about (Pavonine picks a spectral
+variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+from pavonine.pipeline.errors import InputError
+
+if TYPE_CHECKING:
+    from pxr import Usd
+
+    from pavonine.render.diagnostics import Diagnostics
+
+INTEGRATOR = "mitsuba:integrator:"
+SAMPLE_COUNT = "mitsuba:sample_count"
+PATH_TYPES = ("path", "volpath", "pavonine_path")
+DEFAULT_SPP = 64  # samples per pixel when neither the caller nor the stage says
+DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
+DEFAULT_RR_DEPTH = 5  # Mitsuba's
+DIRECT_SAMPLES = ("shading_samples", "emitter_samples", "bsdf_samples")
+
+
+@dataclass(frozen=True)
+class IntegratorSpec:
+    """How the stage asks to be rendered (fields: Mitsuba's integrator parameters)."""
+
+    type: str = "path"  # "path" (Pavonine's path tracer) or "direct"
+    max_depth: int = DEFAULT_MAX_DEPTH  # scattering vertices; -1: no limit
+    rr_depth: int = DEFAULT_RR_DEPTH  # first depth of Russian roulette
+    hide_emitters: bool = False
+    samples: tuple[tuple[str, int], ...] = ()  # ``direct``'s sample counts, as authored
+
+    def with_max_depth(self, max_depth: int | None) -> IntegratorSpec:
+        """This spec with ``max_depth`` overridden (``None``: unchanged)."""
+        return self if max_depth is None else replace(self, max_depth=int(max_depth))
+
+    def mitsuba_dict(self) -> dict[str, Any]:
+        """The integrator's Mitsuba dictionary for the active variant."""
+        if self.type == "direct":
+            return {"type": "direct", "hide_emitters": self.hide_emitters, **dict(self.samples)}
+        from pavonine.render import integrator
+
+        return integrator.path_tracer(
+            self.max_depth, rr_depth=self.rr_depth, hide_emitters=self.hide_emitters
+        )
+
+    def describe(self) -> dict[str, Any]:
+        """The settings as recorded in an image's metadata."""
+        if self.type == "direct":
+            return {"type": "direct", "hide_emitters": self.hide_emitters, **dict(self.samples)}
+        return {
+            "type": "path",
+            "max_depth": self.max_depth,
+            "rr_depth": self.rr_depth,
+            "hide_emitters": self.hide_emitters,
+        }
+
+
+def read_integrator(prim: Usd.Prim, diag: Diagnostics) -> IntegratorSpec:
+    """The integrator a ``RenderSettings`` prim authors (:class:`IntegratorSpec` defaults when
+    it authors none)."""
+    authored = {
+        attr.GetName()[len(INTEGRATOR) :]: attr
+        for attr in prim.GetAttributes()
+        if attr.GetName().startswith(INTEGRATOR) and attr.HasAuthoredValue()
+    }
+    if not authored:
+        return IntegratorSpec()
+    where = str(prim.GetPath())
+    if "type" not in authored:
+        raise InputError(_field(authored[next(iter(authored))]), f"needs {INTEGRATOR}type too")
+    kind = _text(authored.pop("type"))
+    if kind not in (*PATH_TYPES, "direct"):
+        diag.warn(
+            where,
+            f"{INTEGRATOR}type {kind!r} is not supported; rendered with the path tracer "
+            f"(supported: {', '.join(PATH_TYPES)}, direct)",
+        )
+        kind = "path"
+        keys: tuple[str, ...] = ()
+    elif kind == "direct":
+        keys = (*DIRECT_SAMPLES, "hide_emitters")
+    else:
+        kind = "path"
+        keys = ("max_depth", "rr_depth", "hide_emitters")
+    spec = IntegratorSpec(type=kind)
+    samples = []
+    for key, attr in authored.items():
+        if key not in keys:
+            diag.warn(where, f"{INTEGRATOR}{key} is not supported here; ignored")
+        elif key == "hide_emitters":
+            spec = replace(spec, hide_emitters=_flag(attr))
+        elif key == "max_depth":
+            spec = replace(spec, max_depth=_integer(attr, minimum=-1))
+        elif key == "rr_depth":
+            spec = replace(spec, rr_depth=_integer(attr, minimum=1))
+        else:
+            samples.append((key, _integer(attr, minimum=1)))
+    names = {key for key, _ in samples}
+    if "shading_samples" in names and names & {"emitter_samples", "bsdf_samples"}:
+        raise InputError(
+            _field(authored["shading_samples"]),
+            "cannot be given with emitter_samples or bsdf_samples (Mitsuba's direct)",
+        )
+    return replace(spec, samples=tuple(sorted(samples)))
+
+
+def read_sample_count(prim: Usd.Prim) -> int | None:
+    """``mitsuba:sample_count`` of a ``RenderSettings`` prim (``None``: not authored)."""
+    attr = prim.GetAttribute(SAMPLE_COUNT)
+    if not attr or not attr.HasAuthoredValue():
+        return None
+    return _integer(attr, minimum=1)
+
+
+def is_honoured(name: str) -> bool:
+    """Whether a ``mitsuba:`` attribute of a ``RenderSettings`` prim is read here."""
+    return name.startswith(INTEGRATOR) or name == SAMPLE_COUNT
+
+
+def _field(attr: Usd.Attribute) -> str:
+    """``layer: /Prim.attribute``, the layer being the strongest one authoring the value."""
+    from pxr import Usd
+
+    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+    layer = stack[0].layer if stack else attr.GetStage().GetRootLayer()
+    return f"{layer.realPath or layer.identifier}: {attr.GetPath()}"
+
+
+def _integer(attr: Usd.Attribute, minimum: int) -> int:
+    value = attr.Get()
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not number or not math.isfinite(value) or value != int(value):
+        raise InputError(_field(attr), f"must be an integer, got {value!r}")
+    if int(value) < minimum:
+        raise InputError(_field(attr), f"must be at least {minimum}, got {int(value)}")
+    return int(value)
+
+
+def _flag(attr: Usd.Attribute) -> bool:
+    value = attr.Get()
+    if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
+        return bool(value)
+    raise InputError(_field(attr), f"must be a bool, got {value!r}")
+
+
+def _text(attr: Usd.Attribute) -> str:
+    value = attr.Get()
+    if not isinstance(value, str) or not value:
+        raise InputError(_field(attr), f"must be a non-empty string, got {value!r}")
+    return value
