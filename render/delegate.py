@@ -27,6 +27,7 @@ from pavonine.render import (
     subdivision,
 )
 from pavonine.render.diagnostics import Diagnostics, first_line
+from pavonine.render.integrator_settings import warn_unread
 from pavonine.render.limits import (
     DEFAULT_LIMITS,
     MAX_COORDINATE,
@@ -53,6 +54,7 @@ STRUCTURAL = {
 }
 # prims whose children are not geometry either (shading networks, render settings)
 PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
+USD_RENDER = {"RenderSettings", "RenderProduct", "RenderVar"}  # audited by .settings
 
 
 @dataclass
@@ -140,6 +142,8 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
+            if kind not in USD_RENDER:
+                warn_unread(prim, self.diag)
             geometric = prim.IsInstance() or kind in ("Mesh", "BasisCurves", "PointInstancer")
             if (geometric or shapes.is_implicit(prim)) and self._world(prim) is None:
                 it.PruneChildren()
@@ -371,6 +375,8 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
+            if kind not in USD_RENDER:
+                warn_unread(prim, self.diag)
             if kind == "Mesh" or shapes.is_implicit(prim) or kind == "BasisCurves":
                 matrix = self._usable(
                     prim,

@@ -17,7 +17,8 @@ spectral and unbiased:
 Another ``type`` is rendered by the path tracer and another key ignored, each with a warning
 naming it; a value of the wrong kind or out of Mitsuba's range is an :class:`InputError` naming
 the layer and the attribute. ``mitsuba:variant`` is warned about (Pavonine picks a spectral
-variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var.
+variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var, or of any other
+prim (:func:`warn_unread`: hdmitsuba's ``mitsuba:sensor:*`` on cameras, for one).
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ PATH_TYPES = ("path", "volpath", "pavonine_path")
 DEFAULT_SPP = 64  # samples per pixel when neither the caller nor the stage says
 DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
 DEFAULT_RR_DEPTH = 5  # Mitsuba's
+BOX_FILTER = "mitsuba:sensor:film:pixel_filter:type"  # a camera's; "box" is Pavonine's filter
 DIRECT_SAMPLES = ("shading_samples", "emitter_samples", "bsdf_samples")
 
 
@@ -133,6 +135,19 @@ def read_sample_count(prim: Usd.Prim) -> int | None:
     if not attr or not attr.HasAuthoredValue():
         return None
     return _integer(attr, minimum=1)
+
+
+def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
+    """Name every authored ``mitsuba:`` attribute of a prim that is not a UsdRender prim
+    (hdmitsuba's ``mitsuba:sensor:type`` on a camera, ``mitsuba:sensor`` on a mesh …): none is
+    read there. UsdRender prims are audited with their settings (:mod:`.settings`)."""
+    for name in prim.GetAuthoredPropertyNames():
+        if name == BOX_FILTER and prim.GetAttribute(name).Get() == "box":
+            continue  # every image is filtered so (render/api.py)
+        if name.startswith("mitsuba:"):
+            diag.warn(
+                str(prim.GetPath()), f"{name} (hdmitsuba's setting) is ignored: not supported"
+            )
 
 
 def is_honoured(name: str) -> bool:

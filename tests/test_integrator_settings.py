@@ -322,3 +322,27 @@ def test_cli_max_depth_and_sample_count_reach_the_farm_tasks(tmp_path):
     assert integrator["max_depth"] == 1
     bad = CliRunner().invoke(cli, [*args, "--max-depth", "-2"])
     assert bad.exit_code == 2 and "--max-depth" in bad.output
+
+
+@pytest.mark.render
+def test_mitsuba_attributes_elsewhere_are_named_not_dropped(tmp_path):
+    """hdmitsuba's ``irradiancemeter.usda`` pattern: a camera asking to be an irradiance meter, a
+    mesh naming it as its sensor. Neither is rendered so: both named. A box pixel filter is what
+    every image has, so it passes silently; another filter does not."""
+    stage = dome_stage(tmp_path / "sensor.usda")
+    camera = stage.GetPrimAtPath("/Cam")
+    for name, value in (
+        ("mitsuba:sensor:type", "irradiancemeter"),
+        ("mitsuba:sensor:film:pixel_filter:type", "box"),
+    ):
+        camera.CreateAttribute(name, Sdf.ValueTypeNames.String).Set(value)
+    stage.GetPrimAtPath("/Quad").CreateAttribute("mitsuba:sensor", Sdf.ValueTypeNames.String).Set(
+        "/Cam"
+    )
+    found = render(stage, spp=1, resolution=(8, 8)).warnings
+    assert "/Cam: mitsuba:sensor:type (hdmitsuba's setting) is ignored: not supported" in found
+    assert "/Quad: mitsuba:sensor (hdmitsuba's setting) is ignored: not supported" in found
+    assert not any("pixel_filter" in w for w in found)
+    camera.GetAttribute("mitsuba:sensor:film:pixel_filter:type").Set("gaussian")
+    found = render(stage, spp=1, resolution=(8, 8)).warnings
+    assert any(w.startswith("/Cam: mitsuba:sensor:film:pixel_filter:type") for w in found)
