@@ -14,8 +14,9 @@ spectral and unbiased:
   ``emitter_samples`` / ``bsdf_samples``, and ``hide_emitters``;
 * ``mitsuba:sample_count``: the samples per pixel when the caller gives none.
 
-Another ``type`` is rendered by the path tracer and another key ignored, each with a warning
-naming it; a value of the wrong kind or out of Mitsuba's range is an :class:`InputError` naming
+Another ``type`` is rendered by the path tracer (with the ``max_depth``, ``rr_depth`` and
+``hide_emitters`` Mitsuba's Monte Carlo integrators share) and another key ignored, each with a
+warning naming it; a value of the wrong kind or out of Mitsuba's range is an :class:`InputError` naming
 the layer and the attribute. ``mitsuba:variant`` is warned about (Pavonine picks a spectral
 variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var, or of any other
 prim (:func:`warn_unread`: hdmitsuba's ``mitsuba:sensor:*`` on cameras, for one).
@@ -100,11 +101,9 @@ def read_integrator(prim: Usd.Prim, diag: Diagnostics) -> IntegratorSpec:
             f"{INTEGRATOR}type {kind!r} is not supported; rendered with the path tracer "
             f"(supported: {', '.join(PATH_TYPES)}, direct)",
         )
-        kind = "path"
-        keys: tuple[str, ...] = ()
-    elif kind == "direct":
-        keys = (*DIRECT_SAMPLES, "hide_emitters")
-    else:
+    if kind == "direct":
+        keys: tuple[str, ...] = (*DIRECT_SAMPLES, "hide_emitters")
+    else:  # Mitsuba's Monte Carlo integrators share these three
         kind = "path"
         keys = ("max_depth", "rr_depth", "hide_emitters")
     spec = IntegratorSpec(type=kind)

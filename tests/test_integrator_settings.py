@@ -109,9 +109,14 @@ def test_direct_keeps_its_sample_counts():
 def test_unsupported_types_and_keys_are_rendered_by_the_path_tracer_and_named():
     stage = Usd.Stage.CreateInMemory()
     spec, messages = read(
-        settings_prim(stage, mitsuba__integrator__type="ptracer", mitsuba__integrator__samples=4)
+        settings_prim(
+            stage,
+            mitsuba__integrator__type="ptracer",
+            mitsuba__integrator__samples=4,
+            mitsuba__integrator__max_depth=3,
+        )
     )
-    assert spec == IntegratorSpec()
+    assert spec == IntegratorSpec(max_depth=3)  # a Monte Carlo integrator's depth still holds
     assert any(
         "type 'ptracer' is not supported; rendered with the path tracer" in m for m in messages
     )
