@@ -31,7 +31,7 @@ from pavonine.render import instance_primvars, lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
-from pavonine.render.integrator_settings import DEFAULT_SPP
+from pavonine.render.integrator_settings import DEFAULT_SPP, check_variant
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.render.passes import render_passes
 from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
@@ -126,6 +126,8 @@ def render_products(
     stage = open_stage(stage_path, diag)
     time_code = render_time(stage, time)
     settings = read_render_settings(stage, diag)
+    if settings.path is not None:
+        check_variant(stage.GetPrimAtPath(settings.path), backend.variant, diag)
     if spp is None:
         spp = settings.sample_count or DEFAULT_SPP
         _check_spp(spp, moments, limits, f"{stage_path}: {settings.path}.mitsuba:sample_count")

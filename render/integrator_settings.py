@@ -17,8 +17,8 @@ spectral and unbiased:
 Another ``type`` is rendered by the path tracer (with the ``max_depth``, ``rr_depth`` and
 ``hide_emitters`` Mitsuba's Monte Carlo integrators share) and another key ignored, each with a
 warning naming it; a value of the wrong kind or out of Mitsuba's range is an :class:`InputError` naming
-the layer and the attribute. ``mitsuba:variant`` is warned about (Pavonine picks a spectral
-variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var, or of any other
+the layer and the attribute. ``mitsuba:variant`` is warned about unless it is the variant in
+use (Pavonine picks a spectral variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var, or of any other
 prim (:func:`warn_unread`: hdmitsuba's ``mitsuba:sensor:*`` on cameras, for one).
 """
 
@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 
 INTEGRATOR = "mitsuba:integrator:"
 SAMPLE_COUNT = "mitsuba:sample_count"
+VARIANT = "mitsuba:variant"
 PATH_TYPES = ("path", "volpath", "pavonine_path")
 DEFAULT_SPP = 64  # samples per pixel when neither the caller nor the stage says
 DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
@@ -149,9 +150,21 @@ def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
             )
 
 
+def check_variant(prim: Usd.Prim, used: str, diag: Diagnostics) -> None:
+    """Warn when the ``RenderSettings`` prim's ``mitsuba:variant`` is not the variant ``used``
+    (Pavonine picks a spectral one: ``--variant``); the same one passes silently."""
+    attr = prim.GetAttribute(VARIANT)
+    if attr and attr.HasAuthoredValue() and attr.Get() != used:
+        diag.warn(
+            str(prim.GetPath()),
+            f"{VARIANT} {attr.Get()!r} (hdmitsuba's setting) is not used: Pavonine renders "
+            f"spectrally, here with {used} (choose with --variant)",
+        )
+
+
 def is_honoured(name: str) -> bool:
     """Whether a ``mitsuba:`` attribute of a ``RenderSettings`` prim is read here."""
-    return name.startswith(INTEGRATOR) or name == SAMPLE_COUNT
+    return name.startswith(INTEGRATOR) or name in (SAMPLE_COUNT, VARIANT)
 
 
 def _field(attr: Usd.Attribute) -> str:

@@ -247,9 +247,7 @@ def _audit(prim: Usd.Prim, diag: Diagnostics, reads_mitsuba: bool = False) -> No
     for name in prim.GetPropertyNames():
         if not name.startswith("mitsuba:") or (reads_mitsuba and is_honoured(name)):
             continue
-        if name == "mitsuba:variant":
-            reason = "Pavonine renders spectrally; choose a variant with --variant"
-        elif is_honoured(name):
+        if is_honoured(name):
             reason = "read on the RenderSettings prim only"
         else:
             reason = "not supported"

@@ -351,3 +351,16 @@ def test_mitsuba_attributes_elsewhere_are_named_not_dropped(tmp_path):
     camera.GetAttribute("mitsuba:sensor:film:pixel_filter:type").Set("gaussian")
     found = render(stage, spp=1, resolution=(8, 8)).warnings
     assert any(w.startswith("/Cam: mitsuba:sensor:film:pixel_filter:type") for w in found)
+
+
+@pytest.mark.render
+def test_the_variant_in_use_passes_another_is_named(tmp_path):
+    stage = dome_stage(tmp_path / "variant.usda", mitsuba__variant="scalar_rgb")
+    result = render(stage, spp=1, resolution=(8, 8))
+    used = result.metadata["variant"]
+    assert (
+        f"/Render/Settings: mitsuba:variant 'scalar_rgb' (hdmitsuba's setting) is not used: "
+        f"Pavonine renders spectrally, here with {used} (choose with --variant)"
+    ) in result.warnings
+    stage.GetPrimAtPath("/Render/Settings").GetAttribute("mitsuba:variant").Set(used)
+    assert not any("variant" in w for w in render(stage, spp=1, resolution=(8, 8)).warnings)
