@@ -31,7 +31,7 @@ from pavonine.render import instance_primvars, lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
-from pavonine.render.integrator_settings import DEFAULT_SPP, check_variant
+from pavonine.render.integrator_settings import DEFAULT_SPP, MAX_DEPTH_LIMIT, check_variant
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.render.passes import render_passes
 from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
@@ -111,8 +111,10 @@ def render_products(
     """
     if spp is not None:
         _check_spp(spp, moments, limits)
-    if max_depth is not None and max_depth < -1:
-        raise InputError("max_depth", f"must be -1 (no limit) or at least 0, got {max_depth}")
+    if max_depth is not None and not -1 <= max_depth <= MAX_DEPTH_LIMIT:
+        raise InputError(
+            "max_depth", f"must be -1 (no limit) or 0 to {MAX_DEPTH_LIMIT:,}, got {max_depth}"
+        )
     if resolution is not None:
         if len(resolution) != 2:
             raise InputError("resolution", f"must be two positive integers, got {resolution}")
@@ -130,7 +132,7 @@ def render_products(
         check_variant(stage.GetPrimAtPath(settings.path), backend.variant, diag)
     if spp is None:
         spp = settings.sample_count or DEFAULT_SPP
-        _check_spp(spp, moments, limits, f"{stage_path}: {settings.path}.mitsuba:sample_count")
+        _check_spp(spp, moments, limits, settings.sample_count_field or "spp")
     chosen = choose_products(settings.products, products, first_only)
     for product in chosen:
         check_product_size(product, resolution, settings.path, limits)
@@ -165,6 +167,8 @@ def render_products(
         ) from None
     instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
 
+    if max_depth is not None and settings.integrator.type == "direct":
+        diag.warn(str(settings.path), "max_depth has no effect: the stage asks for direct light")
     integrator_spec = settings.integrator.with_max_depth(max_depth)
     path_tracer = integrator_spec.mitsuba_dict()
     results = []

@@ -16,11 +16,13 @@ class Diagnostics:
     """Collects ``/prim/path: message`` lines; each distinct line is kept (and warned) once."""
 
     messages: list[str] = field(default_factory=list)
+    _seen: set[str] = field(default_factory=set, repr=False)
 
     def warn(self, where: str, message: str) -> None:
         """Record a warning about ``where`` (a prim path or file)."""
         line = f"{where}: {message}"
-        if line not in self.messages:
+        if line not in self._seen:
+            self._seen.add(line)
             self.messages.append(line)
             warnings.warn(line, StageWarning, stacklevel=3)
 

@@ -71,8 +71,9 @@ def _plugin_class():
             self.max_depth = self.depth_limit if self.depth_limit >= 0 else 0xFFFFFFFF
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
-            if self.max_depth == 0:  # volpath: nothing, not even emitters, at depth 0
-                return mi.Spectrum(0.0), mi.Bool(False), []
+            if self.max_depth == 0:  # volpath: no light at all; valid where it sees the sky
+                has_env = scene.environment() is not None
+                return mi.Spectrum(0.0), mi.Bool(has_env and not self.hide_emitters) & active, []
             return self.trace(scene, sampler, ray, active)
 
         @dr.syntax

@@ -7,8 +7,8 @@ stage made for it says how it wants to be rendered. Pavonine honours what keeps 
 spectral and unbiased:
 
 * ``type`` ``path``, ``volpath`` or ``pavonine_path``: Pavonine's path tracer
-  (:mod:`.integrator`, ``volpath``'s estimator; Mitsuba's ``path`` differs only in stopping
-  shadow rays at null surfaces) with ``max_depth`` (-1: no limit, Mitsuba's convention),
+  (:mod:`.integrator`, ``volpath``'s estimator; Mitsuba's ``path`` also stops shadow rays at
+  null surfaces and counts a pass through one as a bounce) with ``max_depth`` (-1: no limit, Mitsuba's convention),
   ``rr_depth`` and ``hide_emitters``;
 * ``type`` ``direct``: Mitsuba's ``direct`` integrator with ``shading_samples`` or
   ``emitter_samples`` / ``bsdf_samples``, and ``hide_emitters``;
@@ -42,6 +42,8 @@ PATH_TYPES = ("path", "volpath", "pavonine_path")
 DEFAULT_SPP = 64  # samples per pixel when neither the caller nor the stage says
 DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
 DEFAULT_RR_DEPTH = 5  # Mitsuba's
+MAX_DEPTH_LIMIT = 2**31 - 1  # the largest depth Mitsuba's integer properties hold
+MAX_SHADING_SAMPLES = 65_536  # per camera sample, like the default --max-spp ceiling
 BOX_FILTER = "mitsuba:sensor:film:pixel_filter:type"  # a camera's; "box" is Pavonine's filter
 DIRECT_SAMPLES = ("shading_samples", "emitter_samples", "bsdf_samples")
 
@@ -57,8 +59,10 @@ class IntegratorSpec:
     samples: tuple[tuple[str, int], ...] = ()  # ``direct``'s sample counts, as authored
 
     def with_max_depth(self, max_depth: int | None) -> IntegratorSpec:
-        """This spec with ``max_depth`` overridden (``None``: unchanged)."""
-        return self if max_depth is None else replace(self, max_depth=int(max_depth))
+        """This spec with ``max_depth`` overridden (``None``: unchanged; ``direct`` has none)."""
+        if max_depth is None or self.type == "direct":
+            return self
+        return replace(self, max_depth=int(max_depth))
 
     def mitsuba_dict(self) -> dict[str, Any]:
         """The integrator's Mitsuba dictionary for the active variant."""
@@ -115,26 +119,31 @@ def read_integrator(prim: Usd.Prim, diag: Diagnostics) -> IntegratorSpec:
         elif key == "hide_emitters":
             spec = replace(spec, hide_emitters=_flag(attr))
         elif key == "max_depth":
-            spec = replace(spec, max_depth=_integer(attr, minimum=-1))
+            spec = replace(spec, max_depth=_integer(attr, minimum=-1, maximum=MAX_DEPTH_LIMIT))
         elif key == "rr_depth":
-            spec = replace(spec, rr_depth=_integer(attr, minimum=1))
+            spec = replace(spec, rr_depth=_integer(attr, minimum=1, maximum=MAX_DEPTH_LIMIT))
         else:
-            samples.append((key, _integer(attr, minimum=1)))
-    names = {key for key, _ in samples}
-    if "shading_samples" in names and names & {"emitter_samples", "bsdf_samples"}:
+            samples.append((key, _integer(attr, minimum=0, maximum=MAX_SHADING_SAMPLES)))
+    counts = dict(samples)
+    if "shading_samples" in counts and counts.keys() & {"emitter_samples", "bsdf_samples"}:
         raise InputError(
             _field(authored["shading_samples"]),
             "cannot be given with emitter_samples or bsdf_samples (Mitsuba's direct)",
         )
+    shading = counts.get("shading_samples", 1)
+    if counts.get("emitter_samples", shading) + counts.get("bsdf_samples", shading) == 0:
+        first = authored[next(k for k in DIRECT_SAMPLES if k in counts)]
+        raise InputError(_field(first), "direct needs at least one emitter or BSDF sample")
     return replace(spec, samples=tuple(sorted(samples)))
 
 
-def read_sample_count(prim: Usd.Prim) -> int | None:
-    """``mitsuba:sample_count`` of a ``RenderSettings`` prim (``None``: not authored)."""
+def read_sample_count(prim: Usd.Prim) -> tuple[int | None, str]:
+    """``mitsuba:sample_count`` of a ``RenderSettings`` prim (``None``: not authored) and where
+    it is authored (``layer: /Prim.attribute``; empty when not)."""
     attr = prim.GetAttribute(SAMPLE_COUNT)
     if not attr or not attr.HasAuthoredValue():
-        return None
-    return _integer(attr, minimum=1)
+        return None, ""
+    return _integer(attr, minimum=1, maximum=None), _field(attr)
 
 
 def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
@@ -176,25 +185,35 @@ def _field(attr: Usd.Attribute) -> str:
     return f"{layer.realPath or layer.identifier}: {attr.GetPath()}"
 
 
-def _integer(attr: Usd.Attribute, minimum: int) -> int:
+def _value(attr: Usd.Attribute) -> Any:
+    """The attribute's default value (time samples are not read: a render setting is one value)."""
     value = attr.Get()
+    if value is None:
+        raise InputError(_field(attr), "has no default value (time samples are not read)")
+    return value
+
+
+def _integer(attr: Usd.Attribute, minimum: int, maximum: int | None) -> int:
+    value = _value(attr)
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
     if not number or not math.isfinite(value) or value != int(value):
         raise InputError(_field(attr), f"must be an integer, got {value!r}")
     if int(value) < minimum:
         raise InputError(_field(attr), f"must be at least {minimum}, got {int(value)}")
+    if maximum is not None and int(value) > maximum:
+        raise InputError(_field(attr), f"must be at most {maximum:,}, got {int(value):,}")
     return int(value)
 
 
 def _flag(attr: Usd.Attribute) -> bool:
-    value = attr.Get()
+    value = _value(attr)
     if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
         return bool(value)
     raise InputError(_field(attr), f"must be a bool, got {value!r}")
 
 
 def _text(attr: Usd.Attribute) -> str:
-    value = attr.Get()
+    value = _value(attr)
     if not isinstance(value, str) or not value:
         raise InputError(_field(attr), f"must be a non-empty string, got {value!r}")
     return value

@@ -110,6 +110,7 @@ class RenderSettingsSpec:
     products: list[ProductSpec] = field(default_factory=list)
     integrator: IntegratorSpec = field(default_factory=IntegratorSpec)  # hdmitsuba's settings
     sample_count: int | None = None  # ``mitsuba:sample_count`` (None: not authored)
+    sample_count_field: str = ""  # where it is authored (``layer: /Prim.attribute``)
 
 
 def find_settings(stage: Usd.Stage) -> UsdRender.Settings | None:
@@ -143,6 +144,7 @@ def read_render_settings(stage: Usd.Stage, diag: Diagnostics) -> RenderSettingsS
     if not products:
         products = [base]
     first = products[0]
+    sample_count, sample_count_field = read_sample_count(settings.GetPrim())
     return RenderSettingsSpec(
         resolution=first.resolution,
         camera=first.camera,
@@ -151,7 +153,8 @@ def read_render_settings(stage: Usd.Stage, diag: Diagnostics) -> RenderSettingsS
         path=str(settings.GetPath()),
         products=products,
         integrator=read_integrator(settings.GetPrim(), diag),
-        sample_count=read_sample_count(settings.GetPrim()),
+        sample_count=sample_count,
+        sample_count_field=sample_count_field,
     )
 
 

@@ -30,7 +30,10 @@ def settings_prim(stage: Usd.Stage, **attributes) -> Usd.Prim:
     ``mitsuba:integrator:max_depth``)."""
     prim = UsdRender.Settings.Define(stage, "/Render/Settings").GetPrim()
     for key, value in attributes.items():
-        prim.CreateAttribute(key.replace("__", ":"), TYPES[type(value)]).Set(value)
+        kind = TYPES[type(value)]
+        if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 2**31:
+            kind = Sdf.ValueTypeNames.Int64
+        prim.CreateAttribute(key.replace("__", ":"), kind).Set(value)
     return prim
 
 
@@ -70,7 +73,7 @@ def test_no_mitsuba_settings_give_the_defaults():
         "rr_depth": 5,
         "hide_emitters": False,
     }
-    assert read_sample_count(settings_prim(stage)) is None
+    assert read_sample_count(settings_prim(stage)) == (None, "")
 
 
 @pytest.mark.parametrize("kind", ["path", "volpath", "pavonine_path"])
@@ -86,7 +89,9 @@ def test_path_types_are_the_path_tracer_with_their_depths(kind):
     )
     spec, messages = read(prim)
     assert spec == IntegratorSpec("path", max_depth=-1, rr_depth=3, hide_emitters=True)
-    assert messages == [] and read_sample_count(prim) == 12
+    count, where = read_sample_count(prim)
+    assert messages == [] and count == 12
+    assert where.endswith(": /Render/Settings.mitsuba:sample_count")
 
 
 def test_direct_keeps_its_sample_counts():
@@ -143,6 +148,8 @@ def test_unsupported_types_and_keys_are_rendered_by_the_path_tracer_and_named():
         ({"max_depth": float("nan")}, "max_depth", "must be an integer"),
         ({"max_depth": 2.5}, "max_depth", "must be an integer, got 2.5"),
         ({"rr_depth": 0}, "rr_depth", "must be at least 1, got 0"),
+        ({"max_depth": 2**31}, "max_depth", "must be at most 2,147,483,647, got 2,147,483,648"),
+        ({"rr_depth": 1e300}, "rr_depth", "must be at most 2,147,483,647"),
         ({"hide_emitters": "yes"}, "hide_emitters", "must be a bool"),
         ({"type": ""}, "type", "must be a non-empty string"),
     ],
@@ -174,6 +181,32 @@ def test_a_setting_without_its_type_or_with_clashing_counts_is_refused():
     stage = Usd.Stage.CreateInMemory()
     with pytest.raises(InputError, match="sample_count: must be at least 1"):
         read_sample_count(settings_prim(stage, mitsuba__sample_count=0))
+    stage = Usd.Stage.CreateInMemory()
+    prim = settings_prim(stage)
+    prim.CreateAttribute("mitsuba:sample_count", Sdf.ValueTypeNames.Int).Set(8, 1.0)
+    with pytest.raises(InputError, match="has no default value"):
+        read_sample_count(prim)
+
+
+def test_direct_needs_one_sample_of_either_technique_as_mitsuba_does():
+    """Mitsuba's ``direct`` accepts 0 emitter samples with BSDF samples (and the reverse); only a
+    total of 0 is refused."""
+    stage = Usd.Stage.CreateInMemory()
+    spec, _ = read(
+        settings_prim(
+            stage,
+            mitsuba__integrator__type="direct",
+            mitsuba__integrator__emitter_samples=0,
+            mitsuba__integrator__bsdf_samples=2,
+        )
+    )
+    assert dict(spec.samples) == {"emitter_samples": 0, "bsdf_samples": 2}
+    stage = Usd.Stage.CreateInMemory()
+    prim = settings_prim(
+        stage, mitsuba__integrator__type="direct", mitsuba__integrator__shading_samples=0
+    )
+    with pytest.raises(InputError, match="shading_samples: direct needs at least one"):
+        read(prim)
 
 
 # -- rendering what they say ----------------------------------------------------------------------
@@ -247,16 +280,11 @@ def test_hide_emitters_lets_camera_rays_through_area_lights(tmp_path):
     the dome and the lamp."""
     middle = {}
     for hide in (False, True):
-        stage = dome_stage(
+        stage = lamp_over_quad(
             tmp_path / f"lamp{hide}.usda",
             mitsuba__integrator__type="path",
             mitsuba__integrator__hide_emitters=hide,
         )
-        lamp = UsdLux.RectLight.Define(stage, "/Lamp")
-        lamp.CreateWidthAttr(0.6)
-        lamp.CreateHeightAttr(0.6)
-        lamp.CreateIntensityAttr(5.0)
-        lamp.AddTranslateOp().Set(Gf.Vec3d(0, 0, 2))
         middle[hide] = region(render(stage, spp=16).rgb, (slice(14, 18), slice(14, 18)))
     assert middle[False] == 0.0
     assert middle[True] > 0.5
@@ -364,3 +392,52 @@ def test_the_variant_in_use_passes_another_is_named(tmp_path):
     ) in result.warnings
     stage.GetPrimAtPath("/Render/Settings").GetAttribute("mitsuba:variant").Set(used)
     assert not any("variant" in w for w in render(stage, spp=1, resolution=(8, 8)).warnings)
+
+
+def lamp_over_quad(path: Path, **attributes) -> Usd.Stage:
+    """:func:`dome_stage` with a rect light 2 units above the quad, shining down on it (its
+    unlit back to the camera)."""
+    stage = dome_stage(path, **attributes)
+    lamp = UsdLux.RectLight.Define(stage, "/Lamp")
+    lamp.CreateWidthAttr(0.6)
+    lamp.CreateHeightAttr(0.6)
+    lamp.CreateIntensityAttr(5.0)
+    lamp.AddTranslateOp().Set(Gf.Vec3d(0, 0, 2))
+    return stage
+
+
+@pytest.mark.render
+def test_hide_emitters_and_no_depth_limit_agree_with_volpath(tmp_path, monkeypatch):
+    """The same settings rendered by Mitsuba's ``volpath`` (independent seeds): the same image
+    within noise, the sky hidden and the lamp passed by camera rays in both."""
+    from pavonine.render import integrator
+
+    stage = lamp_over_quad(
+        tmp_path / "hide.usda",
+        mitsuba__integrator__type="volpath",
+        mitsuba__integrator__hide_emitters=True,
+        mitsuba__integrator__max_depth=-1,
+    )
+    ours = render(stage, spp=32, moments=True, seed=1)
+    monkeypatch.setattr(
+        integrator,
+        "path_tracer",
+        lambda depth, **params: {"type": "volpath", "max_depth": depth, **params},
+    )
+    theirs = render(stage, spp=32, moments=True, seed=0)
+    assert ours.metadata["integrator"]["max_depth"] == -1
+    assert stat_test(ours.rgb, theirs.rgb, ours.variance, theirs.variance).passed
+    assert region(ours.rgb, SKY) == region(theirs.rgb, SKY) == 0.0
+    middle = (slice(14, 18), slice(14, 18))
+    assert region(ours.rgb, middle) > 0.5 and region(theirs.rgb, middle) > 0.5
+
+
+@pytest.mark.render
+def test_max_depth_given_for_direct_light_is_named(tmp_path):
+    stage = dome_stage(tmp_path / "direct.usda", mitsuba__integrator__type="direct")
+    result = render(stage, spp=2, resolution=(8, 8), max_depth=3)
+    assert result.metadata["integrator"] == {"type": "direct", "hide_emitters": False}
+    assert (
+        "/Render/Settings: max_depth has no effect: the stage asks for direct light"
+        in result.warnings
+    )

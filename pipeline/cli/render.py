@@ -32,7 +32,7 @@ from pavonine.pipeline.cli.values import SEED, FiniteFloat
 from pavonine.pipeline.errors import InputError, one_line_errors
 from pavonine.pipeline.farm.jobs import RenderJob, View
 from pavonine.pipeline.farm.options import farm_options
-from pavonine.render.integrator_settings import DEFAULT_SPP
+from pavonine.render.integrator_settings import DEFAULT_SPP, MAX_DEPTH_LIMIT
 from pavonine.render.limits import RenderLimits
 
 _PATH_OR_NULL = {"type": ["string", "null"]}
@@ -138,7 +138,7 @@ JSON_SCHEMA = {
 )
 @click.option(
     "--max-depth",
-    type=click.IntRange(min=-1),
+    type=click.IntRange(min=-1, max=MAX_DEPTH_LIMIT),
     default=None,
     help="Longest path, in scattering vertices (-1: no limit; 1: emitters seen directly; 2: "
     "direct light) [default: the RenderSettings' mitsuba:integrator:max_depth, else 8].",
@@ -237,7 +237,7 @@ def render(
     settings = farm.stage_settings(stage)
     if spp is None:
         spp = settings.sample_count or DEFAULT_SPP
-        limits.check_spp(spp, f"{stage}: {settings.path}.mitsuba:sample_count")
+        limits.check_spp(spp, settings.sample_count_field or "--spp")
     views = farm.render_views(settings, products, cameras)
     if farm.needs_farm(frames, turntable, workers, scheduler, split, cameras):
         batch = farm.plan_batch(
