@@ -44,6 +44,8 @@ DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
 DEFAULT_RR_DEPTH = 5  # Mitsuba's
 MAX_DEPTH_LIMIT = 2**31 - 1  # the largest depth Mitsuba's integer properties hold
 MAX_SHADING_SAMPLES = 65_536  # per camera sample, like the default --max-spp ceiling
+#: hdmitsuba's per-mesh refinement level (usd_mitsuba/mesh.py), read by render/subdivision.py
+SUBDIVISION_LEVEL = "mitsuba:subdivision_level"
 BOX_FILTER = "mitsuba:sensor:film:pixel_filter:type"  # a camera's; "box" is Pavonine's filter
 DIRECT_SAMPLES = ("shading_samples", "emitter_samples", "bsdf_samples")
 
@@ -153,6 +155,8 @@ def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
     for name in prim.GetAuthoredPropertyNames():
         if name == BOX_FILTER and prim.GetAttribute(name).Get() == "box":
             continue  # every image is filtered so (render/api.py)
+        if name == SUBDIVISION_LEVEL and prim.GetTypeName() == "Mesh":
+            continue  # read with the subdivision scheme (render/subdivision.py)
         if name.startswith("mitsuba:"):
             diag.warn(
                 str(prim.GetPath()), f"{name} (hdmitsuba's setting) is ignored: not supported"

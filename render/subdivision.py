@@ -17,7 +17,8 @@ smooths them across faces: a documented approximation), ``uniform`` primvars per
 * ``bilinear``: linear refinement (no smoothing); ``none``: the polygons as authored.
 * Loop on polygons that are not triangles: fan-triangulated first (warned).
 
-Refinement stops after :data:`MAX_LEVELS` levels or before the refined mesh exceeds
+Refinement stops after :data:`MAX_LEVELS` levels (or the mesh's ``mitsuba:subdivision_level``,
+hdmitsuba's per-mesh setting; 0: the control mesh) or before the refined mesh exceeds
 :data:`FACE_BUDGET` faces; a mesh already above the budget is rendered as its control mesh with
 smooth normals, with a warning. pymeshlab's Catmull-Clark and Loop filters are not used: they
 ignore boundary rules (a unit quad shrinks to [0.24, 0.76]², where USD keeps it whole) and creases;
@@ -35,6 +36,7 @@ from scipy import sparse
 
 from pavonine.render import attributes
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.integrator_settings import SUBDIVISION_LEVEL
 from pavonine.render.mesh import Surface, make_topology, smooth_normals
 from pavonine.render.primvars import Primvar
 
@@ -70,9 +72,20 @@ def refine_surface(surface: Surface, time: Usd.TimeCode, diag: Diagnostics) -> S
         cage, corner_map = _triangulated(cage)
         surface = _faces_to_triangles(surface, corner_map)
     growth = 3 if scheme == "loop" else 4
+    asked = _asked_levels(prim, time, diag)
+    most = MAX_LEVELS if asked is None else asked
     levels = 0
-    while levels < MAX_LEVELS and len(cage.counts) * growth ** (levels + 1) <= FACE_BUDGET:
+    while levels < most and len(cage.counts) * growth ** (levels + 1) <= FACE_BUDGET:
         levels += 1
+    if asked is not None and levels < asked:
+        diag.warn(
+            where,
+            f"{SUBDIVISION_LEVEL} = {asked} refined to {levels} levels: the budget is "
+            f"{FACE_BUDGET} refined faces",
+        )
+    if asked == 0:
+        refined = replace(surface, normals=smooth_normals(topology), scheme="none")
+        return _drop_holes(refined, cage.hole)
     if levels == 0:
         diag.warn(
             where,
@@ -109,6 +122,22 @@ def refine_surface(surface: Surface, time: Usd.TimeCode, diag: Diagnostics) -> S
         ),
         cage.hole,
     )
+
+
+def _asked_levels(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> int | None:
+    """hdmitsuba's ``mitsuba:subdivision_level`` of a mesh: the levels to refine (0: the control
+    mesh with smooth normals); ``None`` when unauthored or unusable (warned)."""
+    attr = prim.GetAttribute(SUBDIVISION_LEVEL)
+    value = attr.Get(time) if attr else None
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 16:
+        diag.warn(
+            str(prim.GetPath()),
+            f"{SUBDIVISION_LEVEL} = {value!r} is not an integer from 0 to 16; refined as usual",
+        )
+        return None
+    return int(value)
 
 
 @dataclass

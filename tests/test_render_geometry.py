@@ -290,6 +290,30 @@ def test_loop_on_quads_is_triangulated_with_a_warning_and_budget_is_respected(mo
     assert any("above the subdivision budget" in m for m in messages)
 
 
+def test_hdmitsuba_subdivision_level_sets_the_levels(monkeypatch):
+    """``mitsuba:subdivision_level`` (hdmitsuba's per-mesh setting): 0 is the control mesh, N is
+    N levels (6 · 4^N quads) even past the usual 3, within the face budget (warned when capped);
+    an unusable value is warned and the mesh refined as usual."""
+    stage = Usd.Stage.CreateInMemory()
+    faces, notes = {}, {}
+    for index, level in enumerate((0, 1, 5, -1, "two")):
+        mesh = cube_mesh(stage, f"/Level{index}")
+        kind = Sdf.ValueTypeNames.String if isinstance(level, str) else Sdf.ValueTypeNames.Int
+        mesh.GetPrim().CreateAttribute("mitsuba:subdivision_level", kind).Set(level)
+        surface, messages = refined(mesh)
+        faces[level], notes[level] = len(surface.topology.face_vertex_counts), messages
+    assert faces[0] == 6 and faces[1] == 6 * 4 and faces[5] == 6 * 4**5
+    assert faces[-1] == faces["two"] == 6 * 4**3 and "not an integer from 0 to 16" in notes[-1][0]
+    assert notes[0] == notes[1] == notes[5] == []
+    monkeypatch.setattr(subdivision, "FACE_BUDGET", 100)
+    mesh = cube_mesh(stage, "/Capped")
+    mesh.GetPrim().CreateAttribute("mitsuba:subdivision_level", Sdf.ValueTypeNames.Int).Set(4)
+    surface, messages = refined(mesh)
+    assert len(surface.topology.face_vertex_counts) == 6 * 4**2
+    assert messages == ["/Capped: mitsuba:subdivision_level = 4 refined to 2 levels: the budget "
+                        "is 100 refined faces"]  # fmt: skip
+
+
 # -- primvars as mesh attributes ---------------------------------------------------------------
 
 
