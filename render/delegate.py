@@ -54,7 +54,6 @@ STRUCTURAL = {
 }
 # prims whose children are not geometry either (shading networks, render settings)
 PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
-USD_RENDER = {"RenderSettings", "RenderProduct", "RenderVar"}  # audited by .settings
 
 
 @dataclass
@@ -142,8 +141,7 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
-            if kind not in USD_RENDER:
-                warn_unread(prim, self.diag)
+            warn_unread(prim, self.diag)
             geometric = prim.IsInstance() or kind in ("Mesh", "BasisCurves", "PointInstancer")
             if (geometric or shapes.is_implicit(prim)) and self._world(prim) is None:
                 it.PruneChildren()
@@ -375,8 +373,7 @@ class StageDelegate:
                 it.PruneChildren()
                 continue
             kind = prim.GetTypeName()
-            if kind not in USD_RENDER:
-                warn_unread(prim, self.diag)
+            warn_unread(prim, self.diag)
             if kind == "Mesh" or shapes.is_implicit(prim) or kind == "BasisCurves":
                 matrix = self._usable(
                     prim,

@@ -136,8 +136,8 @@ def _plugin_class():
                 if dr.hint(hide, mode="scalar"):
                     # hide_emitters (volpath): a camera ray sees no emitter and passes through
                     # area lights, neither scattering nor counting a bounce.
+                    passing = lit & (depth == 0) & si.is_valid()
                     lit &= depth != 0
-                    passing = stepping & (depth == 0) & si.is_valid() & (emitter != None)  # noqa: E711
                     ray[passing] = si.spawn_ray(current.d)
                     stepping &= ~passing
                 ds = mi.DirectionSample3f(scene, si, last_event)

@@ -8,18 +8,19 @@ spectral and unbiased:
 
 * ``type`` ``path``, ``volpath`` or ``pavonine_path``: Pavonine's path tracer
   (:mod:`.integrator`, ``volpath``'s estimator; Mitsuba's ``path`` also stops shadow rays at
-  null surfaces and counts a pass through one as a bounce) with ``max_depth`` (-1: no limit, Mitsuba's convention),
-  ``rr_depth`` and ``hide_emitters``;
+  null surfaces and counts a pass through one as a bounce) with ``max_depth`` (-1: no limit,
+  Mitsuba's convention), ``rr_depth`` and ``hide_emitters``;
 * ``type`` ``direct``: Mitsuba's ``direct`` integrator with ``shading_samples`` or
   ``emitter_samples`` / ``bsdf_samples``, and ``hide_emitters``;
 * ``mitsuba:sample_count``: the samples per pixel when the caller gives none.
 
 Another ``type`` is rendered by the path tracer (with the ``max_depth``, ``rr_depth`` and
 ``hide_emitters`` Mitsuba's Monte Carlo integrators share) and another key ignored, each with a
-warning naming it; a value of the wrong kind or out of Mitsuba's range is an :class:`InputError` naming
-the layer and the attribute. ``mitsuba:variant`` is warned about unless it is the variant in
-use (Pavonine picks a spectral variant, ``--variant``), as is any ``mitsuba:`` attribute of a product or var, or of any other
-prim (:func:`warn_unread`: hdmitsuba's ``mitsuba:sensor:*`` on cameras, for one).
+warning naming it; a value of the wrong kind or out of Mitsuba's range is an
+:class:`InputError` naming the layer and the attribute. ``mitsuba:variant`` is warned about
+unless it is the variant in use (Pavonine picks a spectral variant, ``--variant``), as is any
+``mitsuba:`` attribute of a product or var, or of any other prim (:func:`warn_unread`:
+hdmitsuba's ``mitsuba:sensor:*`` on cameras, for one).
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ MAX_SHADING_SAMPLES = 65_536  # per camera sample, like the default --max-spp ce
 #: hdmitsuba's per-mesh refinement level (usd_mitsuba/mesh.py), read by render/subdivision.py
 SUBDIVISION_LEVEL = "mitsuba:subdivision_level"
 BOX_FILTER = "mitsuba:sensor:film:pixel_filter:type"  # a camera's; "box" is Pavonine's filter
+USD_RENDER = ("RenderSettings", "RenderProduct", "RenderVar")  # audited by render/settings.py
 DIRECT_SAMPLES = ("shading_samples", "emitter_samples", "bsdf_samples")
 
 
@@ -69,7 +71,7 @@ class IntegratorSpec:
     def mitsuba_dict(self) -> dict[str, Any]:
         """The integrator's Mitsuba dictionary for the active variant."""
         if self.type == "direct":
-            return {"type": "direct", "hide_emitters": self.hide_emitters, **dict(self.samples)}
+            return self.describe()  # Mitsuba's own parameters, as recorded
         from pavonine.render import integrator
 
         return integrator.path_tracer(
@@ -152,15 +154,21 @@ def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
     """Name every authored ``mitsuba:`` attribute of a prim that is not a UsdRender prim
     (hdmitsuba's ``mitsuba:sensor:type`` on a camera, ``mitsuba:sensor`` on a mesh …): none is
     read there. UsdRender prims are audited with their settings (:mod:`.settings`)."""
+    kind = prim.GetTypeName()
+    if kind in USD_RENDER:
+        return
     for name in prim.GetAuthoredPropertyNames():
         if name == BOX_FILTER and prim.GetAttribute(name).Get() == "box":
             continue  # every image is filtered so (render/api.py)
-        if name == SUBDIVISION_LEVEL and prim.GetTypeName() == "Mesh":
+        if name == SUBDIVISION_LEVEL and kind == "Mesh":
             continue  # read with the subdivision scheme (render/subdivision.py)
         if name.startswith("mitsuba:"):
-            diag.warn(
-                str(prim.GetPath()), f"{name} (hdmitsuba's setting) is ignored: not supported"
-            )
+            warn_ignored(prim, name, "not supported", diag)
+
+
+def warn_ignored(prim: Usd.Prim, name: str, reason: str, diag: Diagnostics) -> None:
+    """The one warning for a ``mitsuba:`` attribute that is not read, and why."""
+    diag.warn(str(prim.GetPath()), f"{name} (hdmitsuba's setting) is ignored: {reason}")
 
 
 def check_variant(prim: Usd.Prim, used: str, diag: Diagnostics) -> None:

@@ -28,6 +28,7 @@ from pavonine.render.integrator_settings import (
     is_honoured,
     read_integrator,
     read_sample_count,
+    warn_ignored,
 )
 
 DEFAULT_RESOLUTION = (512, 512)
@@ -250,11 +251,8 @@ def _audit(prim: Usd.Prim, diag: Diagnostics, reads_mitsuba: bool = False) -> No
     for name in prim.GetPropertyNames():
         if not name.startswith("mitsuba:") or (reads_mitsuba and is_honoured(name)):
             continue
-        if is_honoured(name):
-            reason = "read on the RenderSettings prim only"
-        else:
-            reason = "not supported"
-        diag.warn(str(prim.GetPath()), f"{name} (hdmitsuba's setting) is ignored: {reason}")
+        reason = "read on the RenderSettings prim only" if is_honoured(name) else "not supported"
+        warn_ignored(prim, name, reason, diag)
 
 
 def _equal(value: Any, fallback: Any) -> bool:
