@@ -83,7 +83,11 @@ def _cpu_seconds() -> float:
 
 
 def triangles(scene: Path) -> tuple[int, int]:
-    """(triangles held by Mitsuba, triangles if every instance were its own mesh)."""
+    """(triangles held by Mitsuba, triangles if every instance were its own mesh).
+
+    Counts what the delegate draws: meshes of the default and render purposes (a prototype's
+    proxy LOD is not drawn), each n-gon as n - 2 triangles.
+    """
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(scene))
@@ -94,15 +98,27 @@ def triangles(scene: Path) -> tuple[int, int]:
             counts = [0] * len(instancer.GetPrototypesRel().GetTargets())
             for i, target in enumerate(instancer.GetPrototypesRel().GetTargets()):
                 for child in Usd.PrimRange(stage.GetPrimAtPath(target)):
-                    if child.IsA(UsdGeom.Mesh):
-                        counts[i] += len(UsdGeom.Mesh(child).GetFaceVertexCountsAttr().Get())
+                    counts[i] += _drawn_triangles(child)
             held += sum(counts)
             flat += sum(counts[k] for k in instancer.GetProtoIndicesAttr().Get())
-        elif prim.IsA(UsdGeom.Mesh) and not _under_instancer(prim):
-            n = len(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get())
+        elif not _under_instancer(prim):
+            n = _drawn_triangles(prim)
             held += n
             flat += n
     return held, flat
+
+
+def _drawn_triangles(prim) -> int:
+    """Triangles of ``prim`` if it is a mesh the delegate draws, else 0."""
+    from pxr import UsdGeom
+
+    if not prim.IsA(UsdGeom.Mesh):
+        return 0
+    imageable = UsdGeom.Imageable(prim)
+    if imageable.ComputePurpose() not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
+        return 0
+    counts = UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get() or []
+    return sum(max(int(n) - 2, 0) for n in counts)
 
 
 def _under_instancer(prim) -> bool:

@@ -169,7 +169,7 @@ def render_products(
 
     if max_depth is not None and settings.integrator.type == "direct":
         diag.warn(str(settings.path), "max_depth has no effect: the stage asks for direct light")
-    integrator_spec = settings.integrator.with_max_depth(max_depth)
+    integrator_spec = settings.integrator.with_max_depth(max_depth).for_variant(backend.variant)
     path_tracer = integrator_spec.mitsuba_dict()
     results = []
     with _progress(stage_path, jobs, spp, progress) as advance:

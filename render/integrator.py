@@ -20,7 +20,15 @@ What it computes is ``volpath``'s estimator without media (Mitsuba 3.9.1,
   non-null scattering vertex; camera rays and specular chains count it whole;
 * a ``Null`` BSDF sample (passing a mask or a back face) neither counts as a bounce nor moves
   the last scattering vertex; ``max_depth`` counts scattering vertices, ``rr_depth`` starts
-  Russian roulette with continuation probability ``min(max(β)·η², 0.95)``;
+  Russian roulette with continuation probability ``q = min(max(β)·η², 0.95)``;
+* one addition, ``rr_threshold`` (θ, default :data:`RR_THRESHOLD`; 0 is ``volpath``'s roulette
+  exactly): before ``rr_depth``, from the third vertex on, a path whose ``max(β)·η²`` has fallen
+  below θ plays roulette with continuation probability ``max(β)·η²/θ``, and a survivor carries
+  throughput θ (the lower bound of a *weight window*, as in particle transport's MCNP and in
+  Vorba & Křivánek 2016, "Adjoint-driven Russian roulette and splitting in light transport
+  simulation", ACM TOG 35(4)). Unbiased like any roulette, it stops paths that can bring little
+  before they cost five more vertices (the train's time and variance with and without it:
+  docs/performance.md);
 * the sample is valid (film alpha) once a non-null scattering happened or when the scene has
   an environment emitter;
 * ``max_depth`` -1 is no limit and 0 renders nothing; ``hide_emitters`` hides emitters from
@@ -38,6 +46,8 @@ from __future__ import annotations
 from pavonine.render.plugins import register_once
 
 PLUGIN_NAME = "pavonine_path"
+#: Default ``rr_threshold`` (module docstring): early roulette below this max(β)·η².
+RR_THRESHOLD = 0.1
 
 
 def mis_weight(pdf_a, pdf_b):
@@ -63,10 +73,13 @@ def _plugin_class():
             self.depth_limit = int(props.get("max_depth", 8))
             self.rr_depth = int(props.get("rr_depth", 5))
             self.hide_emitters = bool(props.get("hide_emitters", False))
+            self.rr_threshold = float(props.get("rr_threshold", RR_THRESHOLD))
             if self.depth_limit < -1:
                 raise ValueError("max_depth must be -1 (no limit) or at least 0")
             if self.rr_depth < 1:
                 raise ValueError("rr_depth must be at least 1")
+            if not 0.0 <= self.rr_threshold < 1.0:
+                raise ValueError("rr_threshold must be in [0, 1)")
             # -1 is Mitsuba's "no limit": the largest depth a UInt32 holds.
             self.max_depth = self.depth_limit if self.depth_limit >= 0 else 0xFFFFFFFF
 
@@ -109,6 +122,12 @@ def _plugin_class():
                 stepping &= dr.any(mi.unpolarized_spectrum(throughput) != 0.0)
                 q = dr.minimum(dr.max(mi.unpolarized_spectrum(throughput)) * eta * eta, 0.95)
                 roulette = stepping & (depth > self.rr_depth)
+                if dr.hint(self.rr_threshold > 0.0, mode="scalar"):
+                    # The weight window's lower bound (module docstring): survivors carry θ.
+                    theta = self.rr_threshold
+                    early = stepping & ~roulette & (depth > 1) & (q < theta)
+                    q[early] = q / theta
+                    roulette |= early
                 stepping &= (sampler.next_1d(stepping) < q) | ~roulette
                 throughput[roulette] = throughput * dr.rcp(q)
                 stepping &= depth < self.max_depth
@@ -195,7 +214,7 @@ def _plugin_class():
         def to_string(self):
             return (
                 f"PavoninePath[max_depth={self.depth_limit}, rr_depth={self.rr_depth}, "
-                f"hide_emitters={self.hide_emitters}]"
+                f"rr_threshold={self.rr_threshold}, hide_emitters={self.hide_emitters}]"
             )
 
     return PavoninePath
@@ -206,13 +225,19 @@ def register() -> None:
     register_once(PLUGIN_NAME, "integrator", _plugin_class)
 
 
-def path_tracer(max_depth: int, rr_depth: int = 5, hide_emitters: bool = False) -> dict:
+def path_tracer(
+    max_depth: int,
+    rr_depth: int = 5,
+    hide_emitters: bool = False,
+    rr_threshold: float = RR_THRESHOLD,
+) -> dict:
     """The path tracer's Mitsuba dict for the active variant: ``pavonine_path`` in JIT variants,
-    Mitsuba's ``volpath`` in scalar ones (module docstring). ``max_depth`` -1: no limit."""
+    Mitsuba's ``volpath`` in scalar ones, without ``rr_threshold`` (module docstring).
+    ``max_depth`` -1: no limit."""
     import mitsuba as mi
 
     params = {"max_depth": max_depth, "rr_depth": rr_depth, "hide_emitters": hide_emitters}
     if not mi.variant().startswith(("llvm_", "cuda_")):
         return {"type": "volpath", **params}
     register()
-    return {"type": PLUGIN_NAME, **params}
+    return {"type": PLUGIN_NAME, **params, "rr_threshold": rr_threshold}

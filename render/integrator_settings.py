@@ -9,7 +9,9 @@ spectral and unbiased:
 * ``type`` ``path``, ``volpath`` or ``pavonine_path``: Pavonine's path tracer
   (:mod:`.integrator`, ``volpath``'s estimator; Mitsuba's ``path`` also stops shadow rays at
   null surfaces and counts a pass through one as a bounce) with ``max_depth`` (-1: no limit,
-  Mitsuba's convention), ``rr_depth`` and ``hide_emitters``;
+  Mitsuba's convention), ``rr_depth`` and ``hide_emitters``; a stage that authors ``rr_depth``
+  gets ``volpath``'s Russian roulette exactly, one that does not also the early roulette of
+  low-throughput paths (``rr_threshold``, :mod:`.integrator`);
 * ``type`` ``direct``: Mitsuba's ``direct`` integrator with ``shading_samples`` or
   ``emitter_samples`` / ``bsdf_samples``, and ``hide_emitters``;
 * ``mitsuba:sample_count``: the samples per pixel when the caller gives none.
@@ -30,6 +32,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from pavonine.pipeline.errors import InputError
+from pavonine.render.integrator import RR_THRESHOLD
 
 if TYPE_CHECKING:
     from pxr import Usd
@@ -59,6 +62,7 @@ class IntegratorSpec:
     type: str = "path"  # "path" (Pavonine's path tracer) or "direct"
     max_depth: int = DEFAULT_MAX_DEPTH  # scattering vertices; -1: no limit
     rr_depth: int = DEFAULT_RR_DEPTH  # first depth of Russian roulette
+    rr_threshold: float = RR_THRESHOLD  # early roulette below this throughput; 0: volpath's
     hide_emitters: bool = False
     samples: tuple[tuple[str, int], ...] = ()  # ``direct``'s sample counts, as authored
 
@@ -68,6 +72,13 @@ class IntegratorSpec:
             return self
         return replace(self, max_depth=int(max_depth))
 
+    def for_variant(self, variant: str) -> IntegratorSpec:
+        """This spec as rendered in ``variant``: scalar variants render the path tracer with
+        Mitsuba's ``volpath`` (:func:`.integrator.path_tracer`), which has no early roulette."""
+        if self.type == "direct" or variant.startswith(("llvm_", "cuda_")):
+            return self
+        return replace(self, rr_threshold=0.0)
+
     def mitsuba_dict(self) -> dict[str, Any]:
         """The integrator's Mitsuba dictionary for the active variant."""
         if self.type == "direct":
@@ -75,7 +86,10 @@ class IntegratorSpec:
         from pavonine.render import integrator
 
         return integrator.path_tracer(
-            self.max_depth, rr_depth=self.rr_depth, hide_emitters=self.hide_emitters
+            self.max_depth,
+            rr_depth=self.rr_depth,
+            hide_emitters=self.hide_emitters,
+            rr_threshold=self.rr_threshold,
         )
 
     def describe(self) -> dict[str, Any]:
@@ -86,6 +100,7 @@ class IntegratorSpec:
             "type": "path",
             "max_depth": self.max_depth,
             "rr_depth": self.rr_depth,
+            "rr_threshold": self.rr_threshold,
             "hide_emitters": self.hide_emitters,
         }
 
@@ -125,7 +140,8 @@ def read_integrator(prim: Usd.Prim, diag: Diagnostics) -> IntegratorSpec:
         elif key == "max_depth":
             spec = replace(spec, max_depth=_integer(attr, minimum=-1, maximum=MAX_DEPTH_LIMIT))
         elif key == "rr_depth":
-            spec = replace(spec, rr_depth=_integer(attr, minimum=1, maximum=MAX_DEPTH_LIMIT))
+            depth = _integer(attr, minimum=1, maximum=MAX_DEPTH_LIMIT)
+            spec = replace(spec, rr_depth=depth, rr_threshold=0.0)  # as authored, volpath's
         else:
             samples.append((key, _integer(attr, minimum=0, maximum=MAX_SHADING_SAMPLES)))
     counts = dict(samples)

@@ -71,9 +71,20 @@ def test_no_mitsuba_settings_give_the_defaults():
         "type": "path",
         "max_depth": 8,
         "rr_depth": 5,
+        "rr_threshold": 0.1,
         "hide_emitters": False,
     }
     assert read_sample_count(settings_prim(stage)) == (None, "")
+
+
+def test_the_recorded_roulette_is_the_one_the_variant_plays():
+    """Scalar variants render with Mitsuba's volpath, which has no early roulette: the image's
+    metadata says so (rr_threshold 0); JIT variants keep the default."""
+    spec = IntegratorSpec()
+    assert spec.for_variant("llvm_ad_spectral").describe()["rr_threshold"] == 0.1
+    assert spec.for_variant("scalar_spectral").describe()["rr_threshold"] == 0.0
+    direct = IntegratorSpec("direct", samples=(("shading_samples", 4),))
+    assert direct.for_variant("scalar_spectral") == direct
 
 
 @pytest.mark.parametrize("kind", ["path", "volpath", "pavonine_path"])
@@ -88,7 +99,11 @@ def test_path_types_are_the_path_tracer_with_their_depths(kind):
         mitsuba__sample_count=12,
     )
     spec, messages = read(prim)
-    assert spec == IntegratorSpec("path", max_depth=-1, rr_depth=3, hide_emitters=True)
+    # An authored rr_depth is volpath's roulette exactly: no early roulette below a threshold.
+    expected = IntegratorSpec(
+        "path", max_depth=-1, rr_depth=3, rr_threshold=0.0, hide_emitters=True
+    )
+    assert spec == expected
     count, where = read_sample_count(prim)
     assert messages == [] and count == 12
     assert where.endswith(": /Render/Settings.mitsuba:sample_count")
@@ -422,7 +437,7 @@ def test_hide_emitters_and_no_depth_limit_agree_with_volpath(tmp_path, monkeypat
     monkeypatch.setattr(
         integrator,
         "path_tracer",
-        lambda depth, **params: {"type": "volpath", "max_depth": depth, **params},
+        lambda depth, rr_threshold=0.0, **params: {"type": "volpath", "max_depth": depth, **params},
     )
     theirs = render(stage, spp=32, moments=True, seed=0)
     assert ours.metadata["integrator"]["max_depth"] == -1
