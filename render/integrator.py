@@ -46,6 +46,8 @@ from __future__ import annotations
 from pavonine.render.plugins import register_once
 
 PLUGIN_NAME = "pavonine_path"
+DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
+DEFAULT_RR_DEPTH = 5  # Mitsuba's
 #: Default ``rr_threshold`` (module docstring): early roulette below this max(β)·η².
 RR_THRESHOLD = 0.1
 
@@ -70,8 +72,8 @@ def _plugin_class():
 
         def __init__(self, props: mi.Properties):
             mi.SamplingIntegrator.__init__(self, props)
-            self.depth_limit = int(props.get("max_depth", 8))
-            self.rr_depth = int(props.get("rr_depth", 5))
+            self.depth_limit = int(props.get("max_depth", DEFAULT_MAX_DEPTH))
+            self.rr_depth = int(props.get("rr_depth", DEFAULT_RR_DEPTH))
             self.hide_emitters = bool(props.get("hide_emitters", False))
             self.rr_threshold = float(props.get("rr_threshold", RR_THRESHOLD))
             if self.depth_limit < -1:
@@ -225,9 +227,15 @@ def register() -> None:
     register_once(PLUGIN_NAME, "integrator", _plugin_class)
 
 
+def runs_pavonine_path(variant: str) -> bool:
+    """Whether ``variant`` renders the path tracer with ``pavonine_path`` (JIT variants) rather
+    than Mitsuba's ``volpath`` (scalar ones: a Python integrator is called per sample there)."""
+    return variant.startswith(("llvm_", "cuda_"))
+
+
 def path_tracer(
     max_depth: int,
-    rr_depth: int = 5,
+    rr_depth: int = DEFAULT_RR_DEPTH,
     hide_emitters: bool = False,
     rr_threshold: float = RR_THRESHOLD,
 ) -> dict:
@@ -237,7 +245,7 @@ def path_tracer(
     import mitsuba as mi
 
     params = {"max_depth": max_depth, "rr_depth": rr_depth, "hide_emitters": hide_emitters}
-    if not mi.variant().startswith(("llvm_", "cuda_")):
+    if not runs_pavonine_path(mi.variant()):
         return {"type": "volpath", **params}
     register()
     return {"type": PLUGIN_NAME, **params, "rr_threshold": rr_threshold}

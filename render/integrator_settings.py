@@ -32,7 +32,12 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from pavonine.pipeline.errors import InputError
-from pavonine.render.integrator import RR_THRESHOLD
+from pavonine.render.integrator import (
+    DEFAULT_MAX_DEPTH,
+    DEFAULT_RR_DEPTH,
+    RR_THRESHOLD,
+    runs_pavonine_path,
+)
 
 if TYPE_CHECKING:
     from pxr import Usd
@@ -44,8 +49,6 @@ SAMPLE_COUNT = "mitsuba:sample_count"
 VARIANT = "mitsuba:variant"
 PATH_TYPES = ("path", "volpath", "pavonine_path")
 DEFAULT_SPP = 64  # samples per pixel when neither the caller nor the stage says
-DEFAULT_MAX_DEPTH = 8  # Pavonine's default (Mitsuba's own is -1, no limit)
-DEFAULT_RR_DEPTH = 5  # Mitsuba's
 MAX_DEPTH_LIMIT = 2**31 - 1  # the largest depth Mitsuba's integer properties hold
 MAX_SHADING_SAMPLES = 65_536  # per camera sample, like the default --max-spp ceiling
 #: hdmitsuba's per-mesh refinement level (usd_mitsuba/mesh.py), read by render/subdivision.py
@@ -75,7 +78,7 @@ class IntegratorSpec:
     def for_variant(self, variant: str) -> IntegratorSpec:
         """This spec as rendered in ``variant``: scalar variants render the path tracer with
         Mitsuba's ``volpath`` (:func:`.integrator.path_tracer`), which has no early roulette."""
-        if self.type == "direct" or variant.startswith(("llvm_", "cuda_")):
+        if self.type == "direct" or runs_pavonine_path(variant):
             return self
         return replace(self, rr_threshold=0.0)
 
