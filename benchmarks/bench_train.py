@@ -15,7 +15,13 @@ code generation, LLVM compilation and the rest (wall seconds): the rest is mostl
 path tracer into Dr.Jit's IR, once per pass. It also prints the largest kernel's IR operation
 count. The history keeps every kernel's IR, so peak RSS under ``--profile`` reads high.
 
-Usage: python benchmarks/bench_train.py [--resolution 1024x768] [--spp 64] [--profile]
+``--flat`` adds a third render: the train with its instancer written out as plain meshes, every
+copy of a prototype mesh merged into one world-space mesh (``flat_train.py``; no instances, 4.5 M
+triangles held). It is the floor of what the train's geometry costs in Mitsuba, whatever the
+instancing: compare its kernel seconds (``--flat`` implies ``--profile``; its wall seconds include
+syncing 4.5 M triangles from USD, and its memory is not a target).
+
+Usage: python benchmarks/bench_train.py [--resolution 1024x768] [--spp 64] [--profile] [--flat]
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ import os
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -86,7 +93,7 @@ def triangles(scene: Path) -> tuple[int, int]:
     """(triangles held by Mitsuba, triangles if every instance were its own mesh).
 
     Counts what the delegate draws: meshes of the default and render purposes (a prototype's
-    proxy LOD is not drawn), each n-gon as n - 2 triangles.
+    proxy LOD is not drawn) and instances not in ``invisibleIds``, each n-gon as n - 2 triangles.
     """
     from pxr import Usd, UsdGeom
 
@@ -99,8 +106,12 @@ def triangles(scene: Path) -> tuple[int, int]:
             for i, target in enumerate(instancer.GetPrototypesRel().GetTargets()):
                 for child in Usd.PrimRange(stage.GetPrimAtPath(target)):
                     counts[i] += _drawn_triangles(child)
-            held += sum(counts)
-            flat += sum(counts[k] for k in instancer.GetProtoIndicesAttr().Get())
+            indices = instancer.GetProtoIndicesAttr().Get()
+            ids = instancer.GetIdsAttr().Get() or range(len(indices))
+            hidden = set(instancer.GetInvisibleIdsAttr().Get() or [])
+            shown = [k for k, i in zip(indices, ids, strict=True) if i not in hidden]
+            held += sum(counts[k] for k in set(shown))
+            flat += sum(counts[k] for k in shown)
         elif not _under_instancer(prim):
             n = _drawn_triangles(prim)
             held += n
@@ -137,23 +148,40 @@ def main() -> None:
     parser.add_argument("--resolution", default="1024x768")
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--profile", action="store_true", help="split each render (see above)")
+    parser.add_argument("--flat", action="store_true", help="also the train without instancing")
     parser.add_argument("--one", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    args.profile |= args.flat
     size = tuple(int(v) for v in args.resolution.split("x"))
     if args.one:
         print(json.dumps(one(args.one, size, args.spp, args.profile)))
         return
-    results = {}
-    for name in ("eye_feather_sun", "peacock_train"):
-        scene = SCENES / f"{name}.usda"
-        done = subprocess.run(
-            [sys.executable, __file__, "--one", str(scene), "--resolution", args.resolution,
-             "--spp", str(args.spp)] + (["--profile"] if args.profile else []),
-            capture_output=True, text=True, check=True,
-        )  # fmt: skip
-        results[name] = json.loads(done.stdout.strip().splitlines()[-1])
-        held, flat = triangles(scene)
-        results[name].update(triangles=held, flat_triangles=flat)
+    with tempfile.TemporaryDirectory() as tmp:
+        scenes = {name: SCENES / f"{name}.usda" for name in ("eye_feather_sun", "peacock_train")}
+        if args.flat:
+            # in a child too: a child's peak RSS starts at its parent's (Linux keeps it over exec)
+            scenes["train, flat"] = Path(tmp) / "peacock_train_flat.usdc"
+            flat_train = Path(__file__).with_name("flat_train.py")
+            command = [sys.executable, flat_train, scenes["peacock_train"], scenes["train, flat"]]
+            subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+        results = {name: run(scene, args) for name, scene in scenes.items()}
+    report(results, args)
+
+
+def run(scene: Path, args) -> dict:
+    """One scene's render in a child process, with its triangle counts."""
+    done = subprocess.run(
+        [sys.executable, __file__, "--one", str(scene), "--resolution", args.resolution,
+         "--spp", str(args.spp)] + (["--profile"] if args.profile else []),
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result["triangles"], result["flat_triangles"] = triangles(scene)
+    return result
+
+
+def report(results: dict[str, dict], args) -> None:
+    """Print each render and the ratios against the single feather."""
     eye, train = results["eye_feather_sun"], results["peacock_train"]
     for name, r in results.items():
         print(
@@ -173,6 +201,13 @@ def main() -> None:
         f"(CPU {train['cpu_seconds'] / eye['cpu_seconds']:.2f}x; target <= 3), "
         f"memory {train['peak_mib'] / eye['peak_mib']:.2f}x (target <= 1.5)"
     )
+    if args.profile:
+        kernels = ", ".join(
+            f"{name} {r['execution'] / eye['execution']:.2f}x"
+            for name, r in results.items()
+            if r is not eye
+        )
+        print(f"kernel execution / single feather's: {kernels}")
 
 
 if __name__ == "__main__":
