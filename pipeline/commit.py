@@ -403,3 +403,33 @@ def recover(folder: str | os.PathLike) -> list[str]:
             path.unlink(missing_ok=True)
             done.append(f"removed {path}")
     return done
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Raise a one-line :class:`InputError` unless a file can be created at ``path``.
+
+    Probes the output's folder with a temporary file, so that an unwritable output is found
+    before a long render or conversion rather than after it. While that folder does not exist yet, its
+    nearest existing ancestor (which :func:`atomic_path` would create the rest in) is only
+    inspected, never written to: nothing is written outside the output's folder.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(str(path), "is a folder, expected a file name")
+    folder = target.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise InputError(str(path), f"cannot write here: {folder} is not a folder")
+    if folder != target.parent:
+        if os.statvfs(folder).f_flag & os.ST_RDONLY:
+            raise InputError(str(path), f"cannot write here ({os.strerror(errno.EROFS)})")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise InputError(str(path), f"cannot write here ({os.strerror(errno.EACCES)})")
+        return
+    try:
+        fd, probe = tempfile.mkstemp(prefix=temporary_prefix("probe", "tmp"), dir=folder)
+    except OSError as exc:
+        raise InputError(str(path), f"cannot write here ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)

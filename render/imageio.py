@@ -26,7 +26,6 @@ import errno
 import json
 import os
 import re
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -150,38 +149,6 @@ def png_view(attributes: Mapping[str, Any]) -> str | None:
         return view
     match = re.fullmatch(r"pavonine \(OCIO view '(.+)'\)", str(attributes.get("Software", "")))
     return match.group(1) if match else None
-
-
-def check_writable(path: str | os.PathLike) -> None:
-    """Raise a one-line :class:`InputError` unless a file can be created at ``path``.
-
-    Probes the output's folder with a temporary file, so that an unwritable output is found
-    before a long render rather than after it. While that folder does not exist yet, its
-    nearest existing ancestor (which :func:`atomic_path` would create the rest in) is only
-    inspected, never written to: nothing is written outside the output's folder.
-    """
-    from pavonine.pipeline.commit import temporary_prefix
-
-    target = Path(path)
-    if target.is_dir():
-        raise InputError(str(path), "is a folder, expected a file name")
-    folder = target.parent
-    while not folder.exists() and folder != folder.parent:
-        folder = folder.parent
-    if not folder.is_dir():
-        raise InputError(str(path), f"cannot write here: {folder} is not a folder")
-    if folder != target.parent:
-        if os.statvfs(folder).f_flag & os.ST_RDONLY:
-            raise InputError(str(path), f"cannot write here ({os.strerror(errno.EROFS)})")
-        if not os.access(folder, os.W_OK | os.X_OK):
-            raise InputError(str(path), f"cannot write here ({os.strerror(errno.EACCES)})")
-        return
-    try:
-        fd, probe = tempfile.mkstemp(prefix=temporary_prefix("probe", "tmp"), dir=folder)
-    except OSError as exc:
-        raise InputError(str(path), f"cannot write here ({exc.strerror or exc})") from None
-    os.close(fd)
-    os.unlink(probe)
 
 
 def write_render(

@@ -271,6 +271,32 @@ def test_json_to_stdout_is_the_documented_report_and_nothing_else(
     jsonschema.validate(report, json_schema(command_at(path)))
 
 
+def _files(folder: Path) -> dict[str, tuple[int, int]]:
+    return {
+        str(p.relative_to(folder)): (p.stat().st_mtime_ns, p.stat().st_size)
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
+
+
+@pytest.mark.parametrize("path", JSON_CASES)
+def test_an_unwritable_json_report_stops_the_command_before_it_writes(
+    path, tmp_path, monkeypatch, request
+):
+    """The report is written last: its path is checked first, or the outputs would be left."""
+    if path in (("bake",), ("package",), ("export",)):
+        _EYE_ASSET[:] = [request.getfixturevalue("eye_asset")]
+    make_args, _ = EXAMPLES[path]
+    monkeypatch.chdir(tmp_path)
+    args = make_args(tmp_path, monkeypatch)
+    (tmp_path / "afile").write_text("")
+    before = _files(tmp_path)
+    result = invoke(*path, *args, "--json", str(tmp_path / "afile" / "report.json"))
+    assert result.exit_code == 2, result.output
+    assert result.stderr.count("\n") == 1 and "afile" in result.stderr, result.stderr
+    assert _files(tmp_path) == before
+
+
 # ----------------------------------------------------------------------- -v / -q, logging
 @click.command("probe")
 def probe() -> None:

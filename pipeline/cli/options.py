@@ -312,10 +312,16 @@ class JsonOption(click.Option):
 
 
 def _json_target(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """``-``: stdout; a file is checked writable here, before the command writes anything else
+    (the report is written last, so an unwritable one would otherwise leave the outputs behind)."""
+    from pavonine.pipeline.commit import check_writable
+
     if value == "-":
         ctx.meta[_JSON_STDOUT] = True
     elif value is not None and Path(value).is_dir():
         raise click.BadParameter(f"{value} is a folder; give a file name or '-'", ctx, param)
+    elif value is not None and not ctx.resilient_parsing:
+        check_writable(value)
     return value
 
 

@@ -26,7 +26,8 @@ Every command follows the same rules (`pavonine/pipeline/cli/options.py` impleme
   Optional extra outputs have their own names (`--png`, `--report`, `--json`, `--junit`).
 * **`--json FILE|-`** on every command that reports: a JSON object with the documented keys
   below each command (a JSON Schema), written to FILE, or to stdout for `-` (then nothing else
-  goes to stdout). Keys are only ever added.
+  goes to stdout). Keys are only ever added. FILE is checked writable before the command starts,
+  so an unwritable report path leaves nothing written.
 * **`-v/--verbose`, `-q/--quiet`**, before the command or after it: messages go to stderr
   through Python's `logging` (rich's handler on a terminal, `level: message` lines otherwise);
   `-q` keeps only warnings and errors and hides progress bars, `-v` adds details, `-vv` debug.

@@ -219,8 +219,8 @@ def render(
     --max-instances; docs/reliability.md), checked before the render starts. Ctrl-C stops a
     render with exit status 130 and writes nothing.
     """
+    from pavonine.pipeline.commit import check_writable
     from pavonine.pipeline.farm import cli as farm
-    from pavonine.render.imageio import check_writable
     from pavonine.render.settings import parse_resolution
 
     # Everything the user typed is checked before the (possibly long) render.
