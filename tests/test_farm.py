@@ -3,7 +3,8 @@
 Renders a 4-frame turntable through ``--scheduler`` and checks the frames against renders made
 in this process; kills a worker mid-run and checks that the job still completes with correct,
 complete frames; merges a frame split by samples and passes ``compare --method stat`` against a
-single-process render of the same total samples; converts two recipes on the cluster. Every
+single-process render of the same total samples; converts two recipes on the cluster; reports
+bad input found on a worker in one line. Every
 process started here is killed (its whole process group) when the test ends, pass or fail.
 """
 
@@ -310,3 +311,22 @@ def test_convert_on_the_cluster(shared_dask, tmp_path):
         "convert", *recipes, "-o", str(tmp_path / "out2"), "--scheduler", shared_dask.address
     )
     assert again.returncode == 2 and "maps.melanin: no such file" in again.stderr
+
+
+def test_bad_input_found_on_a_worker_is_one_line(tmp_path):
+    """The worker's own "Compute Failed" log of an input error (with its traceback) is dropped:
+    the client prints the error, once, in one line."""
+    scene = tmp_path / "scene.usda"
+    nan = "float pavonine:crescentSigma = nan\n"
+    for name in ("Feather", "Materials", "Feather", "World"):
+        nan = f'over "{name}" {{\n{nan}}}\n'
+    scene.write_text(f"#usda 1.0\n(\n    subLayers = [@{EYE}@]\n)\n\n{nan}")
+    done = pavonine(
+        "render", str(scene), "-o", str(tmp_path / "o.exr"), "--frames", "1-2",
+        "--workers", "1", "--resolution", "16x12", "--spp", "1",
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), done.stderr
+    assert "Feather.pavonine:crescentSigma: is NaN" in lines[0]
+    assert [p.name for p in tmp_path.iterdir()] == ["scene.usda"]

@@ -213,3 +213,25 @@ def test_batch_input_errors_are_one_line(tmp_path):
         assert result.exit_code == 2, (extra, result.output)
         assert message in result.output and result.output.count("\n") == 1, result.output
     assert not list(tmp_path.iterdir())
+
+
+def test_workers_do_not_log_input_errors_but_do_log_bugs():
+    import logging
+
+    from pavonine.pipeline.farm.tasks import quiet_input_errors
+
+    quiet_input_errors()
+    quiet_input_errors()  # once only
+    logger = logging.getLogger("distributed.worker")
+    assert len(logger.filters) == 1
+
+    def record(exception_text: str) -> logging.LogRecord:
+        args = ("key", "executing", "<Task>", exception_text, "Traceback: ...")
+        return logging.LogRecord("distributed.worker", logging.ERROR, "", 0, "Compute Failed\n"
+                                 "Key: %s\nState: %s\nTask: %s\nException: %r\nTraceback: %r\n",
+                                 args, None)  # fmt: skip
+
+    assert not logger.filter(record("InputError('a.usda: x: is NaN')"))
+    assert not logger.filter(record("ParameterError('radius: must be positive')"))
+    assert logger.filter(record("ZeroDivisionError('division by zero')"))
+    assert logger.filter(logging.LogRecord("distributed.worker", 30, "", 0, "other", (), None))

@@ -16,6 +16,7 @@ thread pool has ``threads`` threads (the client's choice for local workers, else
 
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 import socket
@@ -124,6 +125,28 @@ def check_inputs(path: str, expected: str) -> None:
         )
 
 
+#: Exceptions a task raises for bad input: the client prints them as one line, so the worker
+#: does not log them (``distributed.worker``'s "Compute Failed" record, with a traceback).
+INPUT_ERRORS = ("InputError(", "InputMismatch(", "ParameterError(")
+
+
+class _InputErrorFilter(logging.Filter):
+    """Drops ``distributed.worker``'s "Compute Failed" records of input errors (any other failure,
+    a bug, is still logged with its traceback)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if not str(record.msg).startswith("Compute Failed") or not isinstance(record.args, tuple):
+            return True
+        return not any(str(arg).startswith(INPUT_ERRORS) for arg in record.args)
+
+
+def quiet_input_errors() -> None:
+    """Install :class:`_InputErrorFilter` in this worker process (once)."""
+    logger = logging.getLogger("distributed.worker")
+    if not any(isinstance(f, _InputErrorFilter) for f in logger.filters):
+        logger.addFilter(_InputErrorFilter())
+
+
 def _set_threads(threads: int | None) -> None:
     import drjit as dr
 
@@ -139,6 +162,7 @@ def render_task(task: RenderTask) -> RenderShard:
     from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import StageWarning
 
+    quiet_input_errors()
     with _RENDER_LOCK:
         start = time.perf_counter()
         check_version(task.version)
@@ -236,6 +260,7 @@ def convert_task(task: ConvertTask) -> ConvertedAsset:
     """Convert one recipe into a private temporary folder and return the asset's files."""
     from pavonine.pipeline.convert.batch import convert_recipe
 
+    quiet_input_errors()
     check_version(task.version)
     found = files_sha256(recipe_inputs(task.recipe))
     if found != task.inputs_sha256:
