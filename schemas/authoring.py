@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -208,10 +209,14 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
         rows = [(float(v[0]), float(v[1])) for v in value]
         arrays[f"{axis}_{field}"] = rows
         lengths[name] = len(rows)
-    if len(set(lengths.values())) != 1 or not next(iter(lengths.values())):
-        detail = ", ".join(f"{n}={k}" for n, k in lengths.items())
+    common, _ = Counter(lengths.values()).most_common(1)[0]
+    odd = next((n for n, k in lengths.items() if k != common or not k), None)
+    if odd is not None:
+        others = ", ".join(f"{n}={k}" for n, k in lengths.items() if n != odd)
         raise ParameterError(
-            "pavonine:long:layerInterval", f"per-class arrays must be equal and >= 1 long: {detail}"
+            odd,
+            f"has {lengths[odd]} classes; the six per-class arrays must be equally long (>= 1): "
+            f"{others}",
         )
     scalars: dict[str, object] = {}
     for field, (name, vtype) in {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.items():
@@ -257,6 +262,8 @@ _NAMED_FIELDS = {
 def attribute_of_field(field: str) -> str:
     """The schema attribute behind a :class:`ParameterError` field (``class[4].short.black.radius``
     → ``pavonine:short:rodRadius``, ``crescent_sigma_deg`` → ``pavonine:crescentSigma``)."""
+    if field.startswith("pavonine:"):  # the reader names the attribute itself
+        return field
     match = _FIELD.fullmatch(field)
     if not match:
         scalar = {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.get(field)

@@ -230,6 +230,45 @@ def test_crescent_sigma_nan_in_usd_render_names_the_layer_and_attribute(tmp_path
     assert error.where == f"{tmp_path / 'asset.usda'}: /Feather.pavonine:crescentSigma"
 
 
+@pytest.mark.mitsuba
+@pytest.mark.parametrize(
+    "attribute, value, type_name, reason",
+    [
+        ("pavonine:long:rodRadius", [(0.05, 0.05)], "Float2Array", "has 1 classes"),
+        ("pavonine:crescentSigma", "wide", "String", "is authored as string"),
+    ],
+)
+def test_bad_arrays_and_types_in_a_sublayer_name_that_layer_and_the_attribute(
+    tmp_path, attribute, value, type_name, reason
+):
+    """Errors the reader raises itself (it names the USD attribute) reach the user with the layer
+    that authors the value, not the stage's root layer, and the attribute named once."""
+    from pxr import Sdf, Usd
+
+    from pavonine.materials.parameters import ParameterError, preset
+    from pavonine.render.shading.feather import parameter_input_error
+    from pavonine.schemas.authoring import create_feather_material, read_feather_parameters
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
+    create_feather_material(stage, "/Feather", preset("paper-table1"), {})
+    stage.GetRootLayer().Save()
+    override = Sdf.Layer.CreateNew(str(tmp_path / "override.usda"))
+    prim = Sdf.CreatePrimInLayer(override, "/Feather")
+    prim.specifier = Sdf.SpecifierOver
+    Sdf.AttributeSpec(prim, attribute, getattr(Sdf.ValueTypeNames, type_name)).default = value
+    override.Save()
+    scene = Sdf.Layer.CreateNew(str(tmp_path / "scene.usda"))
+    scene.subLayerPaths[:] = [override.identifier, str(tmp_path / "asset.usda")]
+    scene.Save()
+    composed = Usd.Stage.Open(scene.identifier)
+    material = composed.GetPrimAtPath("/Feather")
+    with pytest.raises(ParameterError) as caught:
+        read_feather_parameters(material).validate()
+    error = parameter_input_error(material, caught.value)
+    assert error.where == f"{tmp_path / 'override.usda'}: /Feather.{attribute}"
+    assert error.message.startswith(reason), error.message
+
+
 # ------------------------------------------------------------------------------------ maps
 def test_map_symlink_loop_fifo_and_dev_zero(tmp_path):
     odd = odd_files(tmp_path / "odd")
