@@ -330,3 +330,20 @@ def test_bad_input_found_on_a_worker_is_one_line(tmp_path):
     assert len(lines) == 1 and lines[0].startswith("error: "), done.stderr
     assert "Feather.pavonine:crescentSigma: is NaN" in lines[0]
     assert [p.name for p in tmp_path.iterdir()] == ["scene.usda"]
+
+
+def test_workers_keep_usd_warnings_off_the_terminal(tmp_path):
+    """A missing reference is said once, by the client, not again as USD's raw lines from each
+    worker of an embedded cluster."""
+    scene = tmp_path / "scene.usda"
+    scene.write_text(
+        f"#usda 1.0\n(\n    subLayers = [@{EYE}@]\n)\n"
+        'def Xform "A" (\n    prepend references = @./nope.usda@\n)\n{\n}\n'
+    )
+    done = pavonine(
+        "render", str(scene), "-o", str(tmp_path / "o.exr"), "--frames", "1-2",
+        "--workers", "1", "--resolution", "16x12", "--spp", "1", "-q",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "Warning: in " not in done.stderr, done.stderr
+    assert (tmp_path / "o.0001.exr").is_file() and (tmp_path / "o.0002.exr").is_file()

@@ -18,6 +18,7 @@ from pavonine.pipeline.cli.options import (
     requires,
     say,
     threads_option,
+    warnings_to_log,
 )
 from pavonine.pipeline.cli.values import SEED
 from pavonine.pipeline.compare.baselines import (
@@ -179,13 +180,17 @@ def check_renders(
     The comparisons do not depend on the display options; the report's images do. --junit
     writes one test case per scene, failing when it differs.
     """
+    from pavonine.backend import BackendWarning
+    from pavonine.render.diagnostics import StageWarning
+
     stages = [resolve_stage(s, scenes_dir) for s in scenes] or shipped_scenes(scenes_dir)
     if not stages:
         raise InputError(str(scenes_dir), "no shipped scenes (*.usda) to check")
     methods = METHODS if method == "all" else (method,)
-    timed = run_checks(
-        stages, baselines_dir=baselines_dir, methods=methods, seed=seed, limits=limits
-    )
+    with warnings_to_log(StageWarning, BackendWarning):
+        timed = run_checks(
+            stages, baselines_dir=baselines_dir, methods=methods, seed=seed, limits=limits
+        )
     checks = [check for check, _ in timed]
     page = None
     if report is not None:

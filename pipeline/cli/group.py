@@ -109,8 +109,12 @@ class PavonineGroup(click.Group):
         return _add_global_options(command)
 
     def invoke(self, ctx: click.Context):
+        from pavonine.pipeline.cli.options import log
+        from pavonine.pipeline.cli.usd_diagnostics import usd_warnings_to_log
+
         try:
-            return super().invoke(ctx)
+            with usd_warnings_to_log(log, ctx.meta):
+                return super().invoke(ctx)
         except KeyboardInterrupt:
             command = f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip()
             raise Interrupted(command) from None

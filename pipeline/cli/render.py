@@ -9,6 +9,7 @@ and ``--scheduler`` go through the farm (:mod:`pavonine.pipeline.farm`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
@@ -248,7 +249,7 @@ def render(
             check_writable(path)
         report = farm.render_batch(
             stage, batch, spp=spp, workers=workers, scheduler=scheduler, split=split, seed=seed,
-            variant=variant, display=display, on_image=_show_with_warnings, limits=limits,
+            variant=variant, display=display, on_image=_show_with_warnings(), limits=limits,
             max_depth=max_depth,
         )  # fmt: skip
     else:
@@ -300,11 +301,19 @@ def _show(record: dict[str, Any]) -> None:
     )
 
 
-def _show_with_warnings(record: dict[str, Any]) -> None:
-    """A farm image's line and the warnings its tasks returned (workers do not log)."""
-    _show(record)
-    for message in record["warnings"]:
-        log.warning("%s", message)
+def _show_with_warnings() -> Callable[[dict[str, Any]], None]:
+    """Shows a farm image's line and the warnings its tasks returned (workers do not log), each
+    warning once per batch (every frame of a stage tends to return the same ones)."""
+    said: set[str] = set()
+
+    def show(record: dict[str, Any]) -> None:
+        _show(record)
+        for message in record["warnings"]:
+            if message not in said:
+                said.add(message)
+                log.warning("%s", message)
+
+    return show
 
 
 def _render_here(

@@ -101,8 +101,10 @@ def validate(
     stderr). --junit writes one test case per file, failing on its errors.
     """
     import pavonine  # noqa: F401  (registers the schema plugin before USD builds its registries)
+    from pavonine.pipeline.cli.usd_diagnostics import reported_by_command
     from pavonine.schemas.findings import validate_stage
 
+    reported_by_command()  # USD's composition warnings are findings here
     findings = []
     unreadable = []
     seconds: dict[str, float] = {}

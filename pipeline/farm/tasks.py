@@ -16,6 +16,7 @@ thread pool has ``threads`` threads (the client's choice for local workers, else
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import shutil
@@ -147,6 +148,19 @@ def quiet_input_errors() -> None:
         logger.addFilter(_InputErrorFilter())
 
 
+@contextlib.contextmanager
+def _usd_warnings_dropped():
+    """USD's raw ``Warning: in …`` lines stay off the worker's stderr (an embedded cluster's is
+    the user's terminal): what matters of them comes back as the shard's stage warnings."""
+    from pxr import UsdUtils
+
+    delegate = UsdUtils.CoalescingDiagnosticDelegate()
+    try:
+        yield
+    finally:
+        del delegate
+
+
 def _set_threads(threads: int | None) -> None:
     import drjit as dr
 
@@ -163,7 +177,7 @@ def render_task(task: RenderTask) -> RenderShard:
     from pavonine.render.diagnostics import StageWarning
 
     quiet_input_errors()
-    with _RENDER_LOCK:
+    with _RENDER_LOCK, _usd_warnings_dropped():
         start = time.perf_counter()
         check_version(task.version)
         check_inputs(task.stage, task.stage_sha256)
