@@ -269,8 +269,8 @@ def test_cli_variance_of_wrong_size_exits_2(images: Path):
     assert "variance is 8x8, image is 64x64" in result.output
 
 
-def test_cli_baseline_folder_as_ref_scales_variance_by_spp(tmp_path: Path):
-    """A baseline folder knows its spp and the check's: a 4x noisier TEST is expected."""
+def baseline_folder(tmp_path: Path) -> Path:
+    """A baseline folder ``eye`` (256 spp, checked at 64) and ``test.exr``, a 64-spp render."""
     truth = smooth_image()
     folder = tmp_path / "eye"
     folder.mkdir()
@@ -278,15 +278,104 @@ def test_cli_baseline_folder_as_ref_scales_variance_by_spp(tmp_path: Path):
     test, _ = noisy(truth, 1, 0.04)  # 64 spp: twice the standard deviation
     write_exr(folder / "mean.exr", ref)
     write_exr(folder / "variance.exr", ref_var)
-    record = {"baseline": {"resolution": [64, 64], "spp": 256, "seed": 0},
-              "check": {"resolution": [64, 64], "spp": 64, "seed": 1}, "flip_threshold": 0.2}  # fmt: skip
-    (folder / "baseline.json").write_text(json.dumps(record))
+    (folder / "baseline.json").write_text(json.dumps(BASELINE_RECORD))
     write_exr(tmp_path / "test.exr", test)
+    return folder
+
+
+BASELINE_RECORD = {
+    "baseline": {"resolution": [64, 64], "spp": 256, "seed": 0},
+    "check": {"resolution": [64, 64], "spp": 64, "seed": 1},
+    "flip_threshold": 0.2,
+}
+
+
+def test_cli_baseline_folder_as_ref_scales_variance_by_spp(tmp_path: Path):
+    """A baseline folder knows its spp and the check's: a 4x noisier TEST is expected."""
+    baseline_folder(tmp_path)
+    folder = tmp_path / "eye"
     result = run(str(tmp_path / "test.exr"), str(folder), "--method", "all")
     assert result.exit_code == 0, result.output
     assert "REF variance x 4" in result.output and "0.2" in result.output
     result = run(str(tmp_path / "test.exr"), str(folder), "--test-spp", "256")
     assert result.exit_code == 1, result.output  # claimed as clean as the baseline: it is not
+
+
+BAD_RECORDS = [
+    # (change to BASELINE_RECORD: dotted field -> value, or None to delete it), expected message
+    ({"flip_threshold": "nan"}, 'flip_threshold: must be a positive number, got "nan"'),
+    ({"flip_threshold": float("nan")}, "flip_threshold: must be a positive number, got NaN"),
+    ({"flip_threshold": -1}, "flip_threshold: must be a positive number, got -1"),
+    ({"flip_threshold": 0}, "flip_threshold: must be a positive number, got 0"),
+    ({"flip_threshold": "abc"}, 'flip_threshold: must be a positive number, got "abc"'),
+    ({"flip_threshold": True}, "flip_threshold: must be a positive number, got true"),
+    ({"flip_threshold": None}, "flip_threshold: missing; run 'pavonine baseline update eye'"),
+    ({"check": None}, "check: missing; run 'pavonine baseline update eye'"),
+    ({"baseline": None}, "baseline: missing; run 'pavonine baseline update eye'"),
+    ({"check": [64, 1]}, "check: must be an object with resolution, spp and seed, got [64, 1]"),
+    ({"check.spp": float("nan")}, "check.spp: must be a positive whole number, got NaN"),
+    ({"check.spp": -16}, "check.spp: must be a positive whole number, got -16"),
+    ({"check.spp": "64"}, 'check.spp: must be a positive whole number, got "64"'),
+    ({"check.spp": 64.5}, "check.spp: must be a positive whole number, got 64.5"),
+    ({"check.spp": None}, "check.spp: missing"),
+    ({"check.seed": -1}, "check.seed: must be a whole number in [0, 4294967295], got -1"),
+    ({"check.seed": "1"}, "check.seed: must be a whole number in [0, 4294967295], got '1'"),
+    ({"check.resolution": [64]}, "check.resolution: must be [width, height], got [64]"),
+    ({"check.resolution": None}, "check.resolution: missing"),
+    ({"check.resolution": [64, -64]}, "check.resolution: must be a positive whole number, got -64"),
+    ({"baseline.spp": "abc"}, 'baseline.spp: must be a positive whole number, got "abc"'),
+    ({"baseline.spp": 0}, "baseline.spp: must be a positive whole number, got 0"),
+    ({"baseline.resolution": [32, 32]}, "baseline.resolution: 32x32 differs from mean.exr's 64x64"),
+]
+
+
+@pytest.mark.parametrize(("change", "reason"), BAD_RECORDS)
+def test_cli_baseline_folder_with_a_bad_record_exits_2_naming_the_field(
+    tmp_path: Path, change: dict, reason: str
+):
+    """A bad field of ``baseline.json`` is never replaced by a default (a looser FLIP threshold)."""
+    folder = baseline_folder(tmp_path)
+    record = json.loads(json.dumps(BASELINE_RECORD))
+    for dotted, value in change.items():
+        *parents, key = dotted.split(".")
+        section = record
+        for parent in parents:
+            section = section[parent]
+        if value is None:
+            del section[key]
+        else:
+            section[key] = value
+    (folder / "baseline.json").write_text(json.dumps(record))
+    args = [str(tmp_path / "test.exr"), str(folder), "--method", "flip", "--test-spp", "16"]
+    result = CliRunner().invoke(cli, ["compare", *args])
+    assert result.exit_code == 2, result.output
+    assert result.output == f"error: {folder / 'baseline.json'}: {reason}\n"
+    assert not (tmp_path / "test.flip-diff.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("content", "reason"),
+    [
+        (None, "missing; run 'pavonine baseline update eye'"),
+        ("[1, 2]", "must be a JSON object, got [1, 2]"),
+        ("{}", "baseline: missing; run 'pavonine baseline update eye'"),
+        (b"\xff\xfe{}", "not UTF-8 text"),
+    ],
+)
+def test_cli_baseline_folder_without_a_record_exits_2_with_one_line(
+    tmp_path: Path, content: str | bytes | None, reason: str
+):
+    folder = baseline_folder(tmp_path)
+    record = folder / "baseline.json"
+    if content is None:
+        record.unlink()
+    elif isinstance(content, bytes):
+        record.write_bytes(content)
+    else:
+        record.write_text(content)
+    result = CliRunner().invoke(cli, ["compare", str(tmp_path / "test.exr"), str(folder)])
+    assert result.exit_code == 2, result.output
+    assert result.output == f"error: {record}: {reason}\n"
 
 
 def test_cli_png_against_exr_with_out_of_range_values(tmp_path: Path):

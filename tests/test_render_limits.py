@@ -202,7 +202,11 @@ def test_baseline_check_spp_10_to_the_12_is_refused_not_hung(tmp_path):
 
     write_exr(folder / "mean.exr", mean, {})
     write_exr(folder / "variance.exr", np.full_like(mean, 1e-4), {})
-    info = {"check": {"resolution": [16, 12], "spp": 10**12, "seed": 1}}
+    info = {
+        "baseline": {"resolution": [16, 12], "spp": 64, "seed": 0},
+        "check": {"resolution": [16, 12], "spp": 10**12, "seed": 1},
+        "flip_threshold": 0.05,
+    }
     (folder / "baseline.json").write_text(json.dumps(info))
     run = pavonine(
         "check-renders", stage, "--scenes-dir", scenes, "--baselines-dir", baselines, "-q",

@@ -231,7 +231,7 @@ def list_baselines(scenes_dir: Path, baselines_dir: Path, json_target: str | Non
             info = made.info
             row.update(
                 baseline=relative_to_repo(directory),
-                spp=info.get("baseline", {}).get("spp"),
+                spp=made.settings.spp,
                 check_spp=made.check_settings.spp,
                 resolution=list(made.mean.size),
                 created=info.get("created"),

@@ -113,13 +113,10 @@ def report_entries(checks: list[SceneCheck]):
     entries = []
     for check in checks:
         info = check.baseline.info
-        settings = check.settings
+        made, settings = check.baseline.settings, check.settings
         metadata = {
             "baseline": str(check.baseline.directory),
-            "baseline spp / seed": (
-                f"{info.get('baseline', {}).get('spp', '?')} / "
-                f"{info.get('baseline', {}).get('seed', '?')}"
-            ),
+            "baseline spp / seed": f"{made.spp} / {made.seed}",
             "check spp / seed": f"{settings.spp} / {settings.seed}",
             "baseline made": info.get("created", "?"),
             "baseline versions": ", ".join(

@@ -177,7 +177,7 @@ def compare(
         ref_var = baseline.variance
         if ref_variance is not None:
             ref_var = read_variance(ref_variance, ref_image.size)
-        ref_spp = ref_spp or baseline.info.get("baseline", {}).get("spp")
+        ref_spp = ref_spp or baseline.settings.spp
         test_spp = test_spp or baseline.check_settings.spp
         flip_threshold = flip_threshold or options_for(baseline).flip_threshold
     else:

@@ -27,6 +27,7 @@ from pavonine.pipeline.compare.methods import (
     read_image,
     read_variance,
 )
+from pavonine.pipeline.compare.record import CheckSettings, read_record, recorded_settings
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.groups import GROUP_ATTRIBUTE, content_group_id, group_marks, read_mark
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
@@ -43,33 +44,6 @@ PREVIEW_FILE = "preview.png"
 FORMAT_VERSION = 1
 
 _VERSIONED = ("pavonine", "mitsuba", "drjit", "usd-core", "numpy", "opencolorio", "OpenImageIO")
-
-
-@dataclass(frozen=True)
-class CheckSettings:
-    """How a scene is rendered for CI: resolution (width, height), samples per pixel and seed.
-
-    ``resolution=None`` means CI size: the stage's own aspect ratio, longer side ``CI_LONG_SIDE``.
-    """
-
-    resolution: tuple[int, int] | None = None
-    spp: int = 64
-    seed: int = 0
-
-    def to_json(self) -> dict[str, Any]:
-        size = list(self.resolution) if self.resolution else None
-        return {"resolution": size, "spp": self.spp, "seed": self.seed}
-
-    @classmethod
-    def from_json(cls, data: dict[str, Any], where: str) -> CheckSettings:
-        try:
-            width, height = (int(v) for v in data["resolution"])
-            settings = cls((width, height), int(data["spp"]), int(data["seed"]))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(where, f"bad render settings {data!r} ({exc})") from None
-        if width <= 0 or height <= 0 or settings.spp <= 0:
-            raise InputError(where, f"resolution and spp must be positive, got {data!r}")
-        return settings
 
 
 #: Seed-to-seed renders made at update time to measure the check's noise.
@@ -89,19 +63,21 @@ CHECK_SETTINGS = CheckSettings(None, 128, 1)
 
 @dataclass
 class Baseline:
-    """A loaded baseline: scene-linear mean, per-pixel variance of that estimate, and its record."""
+    """A loaded baseline: scene-linear mean, per-pixel variance of that estimate, and its record
+    (``info``, with the fields comparisons use checked: ``settings``, ``check_settings`` and
+    ``flip_threshold``)."""
 
     scene: str
     directory: Path
     mean: LoadedImage
     variance: np.ndarray
-    info: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def check_settings(self) -> CheckSettings:
-        """Settings for re-rendering this scene in CI (recorded at update time)."""
-        where = str(self.directory / INFO_FILE)
-        return CheckSettings.from_json(self.info.get("check", CHECK_SETTINGS.to_json()), where)
+    info: dict[str, Any]
+    #: How the baseline was rendered (``baseline`` in ``baseline.json``).
+    settings: CheckSettings
+    #: Settings for re-rendering this scene in CI (``check``, recorded at update time).
+    check_settings: CheckSettings
+    #: Calibrated mean-FLIP threshold of this scene.
+    flip_threshold: float
 
     def check_limits(self, limits: RenderLimits = DEFAULT_LIMITS) -> CheckSettings:
         """The check settings, refused (naming ``baseline.json``'s field) beyond ``limits``."""
@@ -205,15 +181,8 @@ def load_baseline(directory: str | Path) -> Baseline:
     if not np.all(np.isfinite(mean.rgb)):
         raise InputError(str(directory / MEAN_FILE), "baseline has NaN or infinite pixels")
     variance = read_variance(directory / VARIANCE_FILE, mean.size)
-    info: dict[str, Any] = {}
     info_path = directory / INFO_FILE
-    if info_path.is_file():
-        try:
-            info = json.loads(info_path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise InputError(
-                str(info_path), f"invalid JSON ({exc.msg} at line {exc.lineno})"
-            ) from None
+    info = read_record(info_path, directory.name)
     mark = read_mark(directory / MEAN_FILE)
     if "group" in info and mark is not None and info["group"] != mark.id:
         raise InputError(
@@ -222,7 +191,8 @@ def load_baseline(directory: str | Path) -> Baseline:
             f"{mark.id[:8]}): the baseline is a mix of two versions; run 'pavonine baseline "
             f"update {directory.name}' again",
         )
-    return Baseline(directory.name, directory, mean, variance, info)
+    settings, check, threshold = recorded_settings(info, info_path, mean)
+    return Baseline(directory.name, directory, mean, variance, info, settings, check, threshold)
 
 
 def baseline_for(scene: str, baselines_dir: str | Path = BASELINES_DIR) -> Baseline:
@@ -462,11 +432,8 @@ def check_stage(
 
 
 def options_for(baseline: Baseline) -> CompareOptions:
-    """Comparison options, with a FLIP threshold recorded in the baseline taking precedence."""
-    threshold = baseline.info.get("flip_threshold")
-    if isinstance(threshold, int | float) and threshold > 0:
-        return CompareOptions(flip_threshold=float(threshold))
-    return CompareOptions()
+    """Comparison options with the baseline's calibrated FLIP threshold."""
+    return CompareOptions(flip_threshold=baseline.flip_threshold)
 
 
 def relative_to_repo(path: str | Path) -> str:
