@@ -204,17 +204,23 @@ def check_image_spec(where: str, spec: Any) -> None:
 
 
 @contextlib.contextmanager
-def open_image(path: str | os.PathLike, where: str | None = None) -> Iterator[Any]:
+def open_image(
+    path: str | os.PathLike, where: str | None = None, *, unassociated_alpha: bool = False
+) -> Iterator[Any]:
     """An OpenImageIO ``ImageInput`` on ``path`` whose header passed :func:`check_image_spec`.
 
     ``path`` must be a regular file; an unreadable header is an :class:`InputError` at ``where``
-    (default: the path). The input is closed on leaving the block.
+    (default: the path). The input is closed on leaving the block. ``unassociated_alpha`` reads
+    colour as stored where the format stores it unassociated (PNG), not multiplied by alpha.
     """
     import OpenImageIO as oiio
 
     where = where or str(path)
     regular_file(path, where)
-    image = oiio.ImageInput.open(os.fspath(path))
+    config = oiio.ImageSpec()
+    if unassociated_alpha:
+        config.attribute("oiio:UnassociatedAlpha", 1)
+    image = oiio.ImageInput.open(os.fspath(path), config)
     if image is None:
         reason = oiio.geterror().strip().splitlines()
         raise InputError(where, f"cannot read image ({reason[-1] if reason else 'unknown format'})")

@@ -242,7 +242,6 @@ def test_cli_png_inputs_fall_back_to_estimated_variance(images: Path):
     ("test", "ref", "reason"),
     [
         ("small.png", "ref.png", "different sizes: 48x32 vs 64x64"),
-        ("rgba.png", "ref.png", "different channel counts: 4 vs 3"),
         ("corrupt.exr", "ref.exr", "corrupt"),
         ("text.png", "ref.png", "cannot read image"),
         ("missing.exr", "ref.exr", "no such file"),
@@ -257,6 +256,49 @@ def test_cli_bad_input_exits_2_with_one_line(images: Path, test: str, ref: str, 
     assert len(lines) == 1 and lines[0].startswith("error: ")
     assert reason in lines[0]
     assert not list(images.glob(f"{Path(test).stem}.*-diff.png"))
+
+
+def write_plain(path: Path, pixels: np.ndarray) -> None:
+    """Channels pavonine's own writers do not make (grey EXR, grey + alpha PNG), with OpenImageIO:
+    float EXR, 8-bit PNG with the colour stored unassociated (as PNG defines it)."""
+    import OpenImageIO as oiio
+
+    height, width, channels = pixels.shape
+    png = path.suffix == ".png"
+    spec = oiio.ImageSpec(width, height, channels, oiio.UINT8 if png else oiio.FLOAT)
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+    data = np.round(pixels * 255).astype(np.uint8) if png else pixels.astype(np.float32)
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), spec)
+    out.write_image(np.ascontiguousarray(data))
+    out.close()
+
+
+@pytest.mark.parametrize("method", ["stat", "flip", "all"])
+def test_cli_grey_is_replicated_and_alpha_dropped_for_every_method(images: Path, method: str):
+    """docs/compare.md: grey images are replicated to RGB; alpha is not compared (a PNG's colour
+    as stored, not multiplied by a translucent alpha)."""
+    d = images
+    ref = read_image(d / "ref.exr").rgb
+    grey = np.repeat(ref[:, :, :1], 3, axis=2)
+    write_exr(d / "grey_rgb.exr", grey)
+    write_plain(d / "grey.exr", grey[:, :, :1])
+    write_png(d / "grey_rgb.png", display_encode(grey))
+    write_png(d / "grey.png", display_encode(grey)[:, :, :1])
+    alpha = np.linspace(0.0, 1.0, SIZE * SIZE, dtype=np.float32).reshape(SIZE, SIZE, 1)
+    unassociated = {"oiio:UnassociatedAlpha": 1}  # colour stored as given, as PNG defines it
+    write_png(d / "translucent.png", np.concatenate([display_encode(ref), alpha], axis=2),
+              attributes=unassociated)  # fmt: skip
+    grey_alpha = np.concatenate([display_encode(grey)[:, :, :1], alpha], axis=2)
+    write_plain(d / "grey_alpha.png", grey_alpha)
+    for test, ref_file in (
+        ("grey.png", "grey_rgb.png"), ("grey_rgb.png", "grey.png"), ("grey.exr", "grey_rgb.exr"),
+        ("grey.png", "grey_rgb.exr"), ("rgba.png", "ref.png"), ("ref.png", "rgba.png"),
+        ("translucent.png", "ref.png"), ("grey_alpha.png", "grey_rgb.png"),
+    ):  # fmt: skip
+        result = run(str(d / test), str(d / ref_file), "--method", method)
+        assert result.exit_code == 0, (test, ref_file, result.output)
+    assert read_image(d / "grey_alpha.png").rgb.shape == (SIZE, SIZE, 3)
 
 
 def test_cli_variance_of_wrong_size_exits_2(images: Path):

@@ -64,7 +64,8 @@ _PNG = (".png",)
 # --------------------------------------------------------------------------------------- images
 @dataclass(frozen=True)
 class LoadedImage:
-    """An image read for comparison: ``rgb`` is H×W×3 float32 scene-linear."""
+    """An image read for comparison: ``rgb`` is H×W×3 float32 scene-linear (grey replicated, alpha
+    dropped); ``channels`` is how many the file has."""
 
     path: Path
     rgb: np.ndarray
@@ -86,7 +87,9 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, dict[str, object]]:
     if not os.path.lexists(path):
         raise InputError(str(path), "no such file")
     check_group(path)  # a render's EXR, variance and PNG: all from one write
-    with open_image(path) as inp:  # a regular file within the pixel budget (pavonine.limits)
+    # a regular file within the pixel budget (pavonine.limits); a PNG's colour as stored, since
+    # alpha is dropped (_as_rgb) and must not darken it
+    with open_image(path, unassociated_alpha=True) as inp:
         attributes = {a.name: a.value for a in inp.spec().extra_attribs}
         pixels = inp.read_image("float")
         error = inp.geterror() if pixels is None else ""
@@ -99,7 +102,7 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, dict[str, object]]:
 
 
 def _as_rgb(pixels: np.ndarray, path: Path) -> np.ndarray:
-    """First three channels (grey replicated); alpha is not compared."""
+    """RGB: grey (and grey + alpha) replicated to three channels, alpha dropped (not compared)."""
     channels = pixels.shape[2]
     if channels in (1, 2):
         return np.repeat(pixels[:, :, :1], 3, axis=2)
@@ -226,16 +229,12 @@ def estimate_noise_variance(rgb: np.ndarray) -> np.ndarray:
 
 
 def check_same_shape(test: LoadedImage, ref: LoadedImage) -> None:
-    """Raise :class:`InputError` unless both images have the same size and channel count."""
+    """Raise :class:`InputError` unless both images have the same size (both are RGB: grey is
+    replicated and alpha dropped when read) and the reference is finite."""
     if test.size != ref.size:
         raise InputError(
             f"{test.path} vs {ref.path}",
             f"different sizes: {test.size[0]}x{test.size[1]} vs {ref.size[0]}x{ref.size[1]}",
-        )
-    if test.channels != ref.channels:
-        raise InputError(
-            f"{test.path} vs {ref.path}",
-            f"different channel counts: {test.channels} vs {ref.channels}",
         )
     if not np.all(np.isfinite(ref.rgb)):
         raise InputError(str(ref.path), "reference has NaN or infinite pixels")
