@@ -262,3 +262,84 @@ def test_bake_bad_input_is_one_line(tmp_path, case):
     result = CliRunner().invoke(cli, ["bake", str(target)])
     assert result.exit_code == 2
     assert result.stderr.startswith(f"error: {target}") and result.stderr.count("\n") == 1
+
+
+def _snapshot(folder) -> dict:
+    """Every file under ``folder`` with its bytes, to show that nothing was written."""
+    return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _refused(target, snapshot_of, named=None) -> str:
+    """Bake ``target``; assert exit 2, one line naming ``named`` (default ``target``), no file
+    under ``snapshot_of`` touched."""
+    before = _snapshot(snapshot_of)
+    result = CliRunner().invoke(cli, ["bake", str(target), "--resolution", "16"])
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
+    assert result.stderr.startswith(f"error: {named or target}: "), result.stderr
+    assert _snapshot(snapshot_of) == before
+    return result.stderr
+
+
+def test_bake_refuses_a_usdz_package_up_front(eye_asset, tmp_path):
+    package = tmp_path / "pk" / "eye.usdz"
+    made = CliRunner().invoke(cli, ["package", str(eye_asset.parent), "-o", str(package), "-q"])
+    assert made.exit_code == 0, made.output
+    assert "unpacked asset" in _refused(package, tmp_path)
+    assert sorted(p.name for p in package.parent.iterdir()) == ["eye.usdz"]
+
+
+SCENE = """#usda 1.0
+(
+    defaultPrim = "{name}"
+)
+
+def Xform "{name}" (
+    kind = "{kind}"
+    prepend references = @../eye_feather/eye_feather.usd@</eye_feather>
+)
+{{
+}}
+"""
+
+
+@pytest.mark.parametrize(
+    ("kind", "says"),
+    [("assembly", "kind 'assembly', not 'component'"), ("component", "outside the asset's folder")],
+)
+def test_bake_refuses_what_is_not_a_feather_asset_root(eye_asset, tmp_path, kind, says):
+    """A scene (or a component of its own) referencing a feather asset elsewhere: refused,
+    the feather it references left alone, no ``<default prim>.mtlx`` beside it."""
+    shutil.copytree(eye_asset.parent, tmp_path / "eye_feather")
+    scene = tmp_path / "scenes" / "scene.usda"
+    scene.parent.mkdir()
+    scene.write_text(SCENE.format(name="World", kind=kind))
+    assert says in _refused(scene, tmp_path)
+    assert not (tmp_path / "eye_feather" / "World.mtlx").exists()
+
+
+def test_bake_refuses_maps_of_different_aspects_like_convert(eye_asset, tmp_path):
+    asset = tmp_path / "eye_feather"
+    shutil.copytree(eye_asset.parent, asset)
+    gradation = next((asset / "maps").glob("gradation.*"))
+    resized = oiio.ImageBufAlgo.resize(oiio.ImageBuf(str(gradation)), roi=oiio.ROI(0, 50, 0, 20))
+    assert resized.write(str(gradation), oiio.UINT16)
+    message = _refused(asset, tmp_path, named=f"{gradation.absolute()}: pavonine:gradationMap")
+    assert "aspect 50x20 differs from the alpha map's" in message
+
+
+def test_bake_names_the_layer_and_attribute_of_a_nan_parameter(eye_asset, tmp_path):
+    from pxr import Sdf
+
+    asset = tmp_path / "eye_feather"
+    shutil.copytree(eye_asset.parent, asset)
+    layer = Sdf.Layer.FindOrOpen(str(asset / "eye_feather_material.usda"))
+    layer.GetAttributeAtPath(
+        "/eye_feather/Materials/Feather.pavonine:crescentSigma"
+    ).default = float("nan")
+    layer.Save()
+    result = CliRunner().invoke(cli, ["bake", str(asset), "--resolution", "16"])
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
+    assert result.stderr == (
+        f"error: {(asset / 'eye_feather_material.usda').absolute()}: "
+        "/eye_feather/Materials/Feather.pavonine:crescentSigma: is NaN\n"
+    )

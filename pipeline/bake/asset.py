@@ -11,6 +11,11 @@ An asset in a folder of its own (``NAME/NAME.usd``, as ``pavonine convert`` writ
 as one commit: the folder is copied to a hidden staging folder beside it, baked there, and
 exchanged with the original in one atomic step (:mod:`pavonine.pipeline.commit`), so a crash
 or a full disk leaves the old asset whole. Any other root layer is baked in place, file by file.
+
+Only a feather asset's root layer is baked: its default prim a ``component`` model, every feather
+material defined in a layer inside the root layer's folder (bake writes nowhere else), not a
+``.usdz`` package. Every material's inputs (parameters, maps and their aspects) are checked
+before the first file is written.
 """
 
 from __future__ import annotations
@@ -119,7 +124,9 @@ def merge(meshes: list[MeshData]) -> MeshData:
 
 
 def _open(root: Path):
-    from pxr import Tf, Usd
+    """The stage at ``root`` and its default prim, refused unless it is a feather asset's root
+    layer: a component model (as ``pavonine convert`` writes it) with a feather material."""
+    from pxr import Kind, Tf, Usd
 
     import pavonine  # noqa: F401  (registers the schema)
 
@@ -130,6 +137,13 @@ def _open(root: Path):
     default = stage.GetDefaultPrim() if stage else None
     if not default:
         raise InputError(str(root), "no defaultPrim: bake works on a component asset")
+    kind = Usd.ModelAPI(default).GetKind()
+    if kind != Kind.Tokens.component:
+        raise InputError(
+            str(root),
+            f"not a feather asset's root layer: its default prim {default.GetPath()} is of kind "
+            f"{kind or 'none'!r}, not 'component' (bake works on an asset pavonine convert wrote)",
+        )
     lod = default.GetVariantSet("lod")
     if "high" in lod.GetVariantNames():
         with Usd.EditContext(stage, stage.GetSessionLayer()):
@@ -199,9 +213,16 @@ def bake_asset(asset: str | os.PathLike, resolution: int, report=None) -> BakeRe
     from pavonine.pipeline.commit import staged_folder
 
     root = root_layer_path(asset)
+    if root.suffix.lower() == ".usdz":
+        raise InputError(
+            str(root),
+            "a .usdz package cannot be baked: bake needs the unpacked asset (its folder or root "
+            "layer); bake that, then pavonine package it again",
+        )
     folder = root.parent
     if root.name != f"{folder.name}.usd":
         return _bake_in_place(root, resolution, report)
+    folder = Path(os.path.abspath(folder))  # errors name USD's absolute paths inside staging
     with staged_folder(folder, replace=True, subject=folder.name) as staging:
         shutil.copytree(
             folder, staging, symlinks=True, dirs_exist_ok=True,
@@ -218,13 +239,74 @@ def bake_asset(asset: str | os.PathLike, resolution: int, report=None) -> BakeRe
     return BakeReport(str(root), resolution, relocated["materials"])
 
 
-def _bake_in_place(root: Path, resolution: int, report=None) -> BakeReport:
-    """Re-bake every feather material of the stage at ``root``, editing its files in place."""
-    from pxr import Usd, UsdShade
+@dataclass
+class _Job:
+    """One feather material to bake, its inputs read and checked before anything is written."""
 
+    material: object
+    meshes: list
+    params: object
+    maps: dict
+    paths: dict
+    target: object
+    layer: object
+
+
+def _material_layer(root: Path, material):
+    """The edit target and layer of ``material``'s definition, refused (naming ``root``) unless
+    the layer is a file inside the asset's own folder, the only place bake writes."""
+    from pxr import Ar
+
+    target, layer = _edit_target(material.GetPrim())
+    folder = Path(os.path.realpath(root.parent))
+    real = layer.realPath
+    inside = bool(real) and Path(os.path.realpath(real)).is_relative_to(folder)
+    if not inside or Ar.IsPackageRelativePath(real) or layer.GetFileFormat().IsPackage():
+        raise InputError(
+            str(root),
+            f"not a feather asset's root layer: its material {material.GetPath()} is defined in "
+            f"{real or layer.identifier}, outside the asset's folder {root.parent}",
+        )
+    return target, layer
+
+
+def _job(root: Path, stage, default, material) -> _Job:
+    """``material``'s meshes, parameters and maps, read and checked (:class:`InputError`)."""
     from pavonine.asset_io import local_file
     from pavonine.materials.parameters import ParameterError
-    from pavonine.pipeline.maps.io import read_data_map
+    from pavonine.pipeline.maps.io import check_aspects, read_data_map
+    from pavonine.render.shading.feather import parameter_input_error
+    from pavonine.schemas import authoring
+
+    where = str(material.GetPath())
+    target, layer = _material_layer(root, material)
+    meshes = _bound_meshes(stage, default, material)
+    if not meshes:
+        raise InputError(where, "no mesh is bound to this material")
+    try:
+        params = authoring.read_feather_parameters(material).validate()
+    except ParameterError as exc:
+        raise parameter_input_error(material.GetPrim(), exc) from None
+    maps, paths, fields = {}, {}, {}
+    for key, resolved in authoring.resolve_maps(material).items():
+        if resolved is None:
+            continue
+        name = authoring.MAP_ATTRS[key]
+        fields[key] = f"{resolved}: {name}"
+        try:
+            maps[key] = read_data_map(local_file(resolved), name).values
+        except OSError:
+            raise InputError(fields[key], "not found") from None
+        paths[key] = material.GetPrim().GetAttribute(name).Get().path
+    check_aspects(maps, fields)
+    return _Job(material, meshes, params, maps, paths, target, layer)
+
+
+def _bake_in_place(root: Path, resolution: int, report=None) -> BakeReport:
+    """Re-bake every feather material of the stage at ``root``, editing its files in place:
+    every material's inputs are checked before the first file is written."""
+    from pxr import Usd, UsdShade
+
     from pavonine.pipeline.shading.looks import Looks
     from pavonine.pipeline.shading.usd import bind
     from pavonine.schemas import authoring
@@ -237,38 +319,24 @@ def _bake_in_place(root: Path, resolution: int, report=None) -> BakeReport:
     ]
     if not materials:
         raise InputError(str(root), "no PavonineFeatherAPI material under the default prim")
+    jobs = [_job(root, stage, default, material) for material in materials]
     result = BakeReport(str(root), resolution)
-    for material in materials:
+    for job in jobs:
+        material, meshes, layer = job.material, job.meshes, job.layer
         where = str(material.GetPath())
         if report:
             report(where)
-        meshes = _bound_meshes(stage, default, material)
-        if not meshes:
-            raise InputError(where, "no mesh is bound to this material")
-        try:
-            params = authoring.read_feather_parameters(material).validate()
-        except ParameterError as exc:
-            raise InputError(f"{where}: {exc.field}", exc.reason) from None
-        maps, paths = {}, {}
-        for key, resolved in authoring.resolve_maps(material).items():
-            attr = material.GetPrim().GetAttribute(authoring.MAP_ATTRS[key])
-            if resolved is None:
-                continue
-            try:
-                maps[key] = read_data_map(local_file(resolved), authoring.MAP_ATTRS[key]).values
-            except OSError:
-                raise InputError(f"{resolved}: {authoring.MAP_ATTRS[key]}", "not found") from None
-            paths[key] = attr.Get().path
-        target, layer = _edit_target(material.GetPrim())
         folder = Path(layer.realPath).parent
         vane = merge([mesh_data(prim) for prim in meshes])
-        looks = Looks.bake(folder, default.GetName(), vane, maps, paths, params, resolution)
+        looks = Looks.bake(
+            folder, default.GetName(), vane, job.maps, job.paths, job.params, resolution
+        )
         portable_path = (
             material.GetPath()
             .GetParentPath()
             .AppendChild(material.GetPath().name + PORTABLE_SUFFIX)
         )
-        with Usd.EditContext(stage, target):
+        with Usd.EditContext(stage, job.target):
             feather, portable = looks.author(stage, material.GetPath(), portable_path)
             for prim in meshes:
                 bind(stage.OverridePrim(prim.GetPath()), feather, portable)

@@ -62,7 +62,11 @@ JSON_SCHEMA = {
 def bake(asset: Path, resolution: int, json_target: str | None) -> None:
     """Bake ASSET's feather materials into textures over the st atlas.
 
-    ASSET is a feather asset's root layer (or its folder). For every PavonineFeatherAPI material:
+    ASSET is a feather asset's root layer (or its folder): a component model whose feather
+    material is defined in a layer inside the asset's folder, the only place bake writes. A
+    scene referencing feathers or a .usdz package is refused (bake the unpacked asset, then
+    package it again). Maps of unequal aspect are refused as by convert. For every
+    PavonineFeatherAPI material:
     the base colour under the reference light and view, opacity, roughness and thin-film
     thickness/index/weight are written to textures/ beside its material layer; its
     UsdPreviewSurface reads them (opacityThreshold 0.5); <name>.mtlx and its USD MaterialX

@@ -39,14 +39,11 @@ from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
 from pavonine.pipeline.convert.surface import FeatherFrame
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.faults import checkpoint
-from pavonine.pipeline.maps.io import DataMap, read_data_map
+from pavonine.pipeline.maps.io import DataMap, check_aspects, read_data_map
 from pavonine.pipeline.maps.paint import MAP_NAMES
 from pavonine.pipeline.shading.looks import Looks
 
 STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "bake", "write")
-
-#: Two maps have "equal aspect" when width/height differ by less than this fraction.
-ASPECT_TOLERANCE = 0.01
 
 
 @dataclass
@@ -109,14 +106,10 @@ def check_maps(recipe: Recipe, maps: dict[str, np.ndarray]) -> None:
             f"{ref_w}x{ref_h} pixels: width:height must lie in [1:{MAX_MAP_ASPECT:g}, "
             f"{MAX_MAP_ASPECT:g}:1] (the maps span the feather's length and width)",
         )
-    for name in MAP_NAMES:
-        h, w = maps[name].shape
-        if abs((w / h) / ref_aspect - 1.0) > ASPECT_TOLERANCE:
-            raise InputError(
-                f"{recipe.maps[name]}: maps.{name}",
-                f"aspect {w}x{h} differs from the alpha map's {ref_w}x{ref_h}; "
-                "all six maps must have the same width:height",
-            )
+    check_aspects(
+        {name: maps[name] for name in MAP_NAMES},
+        {name: f"{recipe.maps[name]}: maps.{name}" for name in MAP_NAMES},
+    )
     threshold = recipe.geometry.alpha_threshold
     if float(maps["alpha"].max()) <= threshold:
         raise InputError(

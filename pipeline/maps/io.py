@@ -10,6 +10,7 @@ as image files store them; feather space puts ``v = 0`` at the image's bottom ro
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,6 +23,9 @@ from pavonine.pipeline.errors import InputError
 
 #: Colour space written into every map (data, not colour).
 DATA_COLORSPACE = "Raw"
+
+#: How far (relative) a map's width:height may stray from the reference map's.
+ASPECT_TOLERANCE = 0.01
 
 #: Rec. 709 luma weights, used only when someone hands us an RGB(A) "grey" map.
 _REC709_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
@@ -105,6 +109,27 @@ def read_data_map(path: str | os.PathLike, field: str) -> DataMap:
         raise InputError(where, "contains NaN or infinite values")
     is_float = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
     return DataMap(np.clip(grey, 0.0, 1.0), is_float)
+
+
+def check_aspects(
+    maps: Mapping[str, np.ndarray], where: Mapping[str, str], reference: str = "alpha"
+) -> None:
+    """Raise :class:`InputError` at ``where[name]`` (file and field) for the first map whose
+    width:height differs from the ``reference`` map's (the first map when that one is absent):
+    the maps all span the same feather."""
+    if reference not in maps:
+        reference = next(iter(maps), reference)
+    if reference not in maps:
+        return
+    ref_h, ref_w = maps[reference].shape
+    for name, values in maps.items():
+        h, w = values.shape
+        if abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE:
+            raise InputError(
+                where[name],
+                f"aspect {w}x{h} differs from the {reference} map's {ref_w}x{ref_h}; "
+                "all the maps must have the same width:height",
+            )
 
 
 def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
