@@ -145,3 +145,18 @@ def test_bad_input_is_one_line(eye_asset, tmp_path, args, field):
     result = run(*argv)
     assert result.exit_code == 2 and field in result.stderr and result.stderr.count("\n") == 1
     assert not any(tmp_path.iterdir())
+
+
+def test_a_missing_baked_texture_is_named_with_its_shader_input(eye_asset, tmp_path):
+    """A texture the material authors but that is not there: the file and ``inputs:file``."""
+    asset = tmp_path / "eye_feather"
+    shutil.copytree(eye_asset.parent, asset)
+    (asset / "textures" / "basecolor.png").unlink()
+    result = run("export", asset, "-o", tmp_path / "x.glb")
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
+    missing = asset / "textures" / "basecolor.png"
+    assert result.stderr.startswith(f"error: {missing}: /eye_feather/Materials/Feather/"), (
+        result.stderr
+    )
+    assert ".inputs:file: " in result.stderr and "not found" in result.stderr
+    assert not (tmp_path / "x.glb").exists()

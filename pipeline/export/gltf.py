@@ -129,16 +129,25 @@ def _png(rgb: np.ndarray) -> bytes:
 
 
 def _texture_file(shader_input) -> str | None:
-    """The resolved file of the image feeding ``shader_input`` (through one remap, say)."""
+    """The resolved file of the image feeding ``shader_input`` (through one remap, say);
+    ``None`` when no image does. An image authored but not found is an :class:`InputError`
+    naming the file (anchored to the layer that authors it) and the shader's ``inputs:file``."""
     from pxr import UsdShade
+
+    from pavonine.schemas.authoring import anchored_path
 
     seen = 0
     current = shader_input
     while current and current.HasConnectedSource() and seen < 4:
         shader = UsdShade.Shader(current.GetConnectedSources()[0][0].source.GetPrim())
         file = shader.GetInput("file")
-        if file and file.Get() is not None:
-            return file.Get().resolvedPath or None
+        value = file.Get() if file else None
+        if value is not None:
+            if value.path and not value.resolvedPath:
+                attr = file.GetAttr()
+                where = f"{anchored_path(attr, value.path)}: {attr.GetPath()}"
+                raise InputError(where, "baked texture not found; run pavonine bake")
+            return value.resolvedPath or None
         current = shader.GetInput("in")
         seen += 1
     return None
