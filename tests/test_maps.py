@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import itertools
+import re
+import shlex
+from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
@@ -165,3 +168,28 @@ def test_maps_command_rejects_unknown_kind(tmp_path):
     result = CliRunner().invoke(cli, ["maps", "ostrich", "-o", str(tmp_path / "m")])
     assert result.exit_code == 2
     assert not (tmp_path / "m").exists()
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _documented_maps_commands() -> list[tuple[str, str]]:
+    """(file, command) for every ``pavonine maps KIND ...`` command in the recipes' comments,
+    the README and docs/*.md (up to a backtick, a ``#`` comment or a table bar)."""
+    files = [*sorted((ROOT / "assets" / "recipes").glob("*.toml")), ROOT / "README.md"]
+    files += sorted((ROOT / "docs").glob("*.md"))
+    found = []
+    for path in files:
+        for match in re.finditer(r"pavonine maps ([^`#|\n]*)", path.read_text()):
+            command = match.group(1).strip()
+            if command.split(" ")[0] in KINDS:
+                found.append((str(path.relative_to(ROOT)), command))
+    return found
+
+
+@pytest.mark.parametrize(("source", "command"), _documented_maps_commands())
+def test_documented_maps_commands_run(source, command, tmp_path, monkeypatch):
+    """Each documented command, at 16 pixels into a scratch folder, exits 0."""
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(cli, ["maps", *shlex.split(command), "--size", "16", "-q"])
+    assert result.exit_code == 0, f"{source}: pavonine maps {command}: {result.output}"
