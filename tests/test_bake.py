@@ -327,7 +327,11 @@ def test_bake_refuses_maps_of_different_aspects_like_convert(eye_asset, tmp_path
     assert "aspect 50x20 differs from the alpha map's" in message
 
 
-def test_bake_names_the_layer_and_attribute_of_a_nan_parameter(eye_asset, tmp_path):
+@pytest.mark.parametrize("relative", [False, True])
+def test_bake_names_the_layer_and_attribute_of_a_nan_parameter(
+    eye_asset, tmp_path, monkeypatch, relative
+):
+    """Named in the asset folder, not in the hidden staging copy (also given a relative path)."""
     from pxr import Sdf
 
     asset = tmp_path / "eye_feather"
@@ -337,7 +341,10 @@ def test_bake_names_the_layer_and_attribute_of_a_nan_parameter(eye_asset, tmp_pa
         "/eye_feather/Materials/Feather.pavonine:crescentSigma"
     ).default = float("nan")
     layer.Save()
-    result = CliRunner().invoke(cli, ["bake", str(asset), "--resolution", "16"])
+    if relative:
+        monkeypatch.chdir(tmp_path)
+    given = asset.name if relative else str(asset)
+    result = CliRunner().invoke(cli, ["bake", given, "--resolution", "16"])
     assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
     assert result.stderr == (
         f"error: {(asset / 'eye_feather_material.usda').absolute()}: "
