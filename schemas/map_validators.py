@@ -32,10 +32,41 @@ def _texture_shaders(material: Usd.Prim) -> Iterable[UsdShade.Shader]:
             yield shader
 
 
+def _pixel_problems(inp, path: str, colour: int) -> list[tuple[str, str, object]]:
+    """[(severity, name, message)] of an open image's pixels, decoded as the pipeline reads
+    them (:func:`pavonine.pipeline.maps.io.read_data_map`): unreadable (a truncated file),
+    non-finite or out of [0, 1] values are errors; colour channels that differ warn."""
+    import numpy as np
+
+    from pavonine.pipeline.maps.io import grey_values, value_problem
+
+    spec = inp.spec()
+    pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
+    if pixels is None:
+        error = (inp.geterror() or "no pixels").strip().splitlines()[0]
+        return [(ERROR, "MapNotAnImage", f"OpenImageIO cannot read pixels of {path}: {error}")]
+    problem = value_problem(grey_values(pixels, spec))
+    if problem:
+        return [(ERROR, "MapValues", f"{path}: {problem}")]
+    if colour < 3:
+        return []
+    rgb = np.asarray(pixels).reshape(-1, spec.nchannels)[:, :3]
+    spread = float(np.max(np.ptp(rgb, axis=1)))
+    if spread <= 1.0 / 255.0:
+        return []
+    return [
+        (
+            WARN,
+            "MapNotGrey",
+            f"{path} has colour channels that differ (by up to {spread:.3f}); "
+            "Pavonine reads its first channel",
+        )
+    ]
+
+
 def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int, int] | None]:
     """[(severity, name, message)] for one image behind a resolved asset path (a file, or a
     member of a ``.usdz`` package read through Ar), and its (width, height)."""
-    import numpy as np
     import OpenImageIO as oiio
 
     from pavonine.asset_io import local_file
@@ -84,27 +115,8 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
                     f"{path} has {spec.nchannels} channels; expected 1 (grey) to 4",
                 )
             )
-        elif colour >= 3 and not any(p[0] == ERROR for p in problems):  # never decode a refused map
-            pixels = inp.read_image(0, 0, 0, 3, "float")
-            if pixels is None:
-                problems.append(
-                    (
-                        ERROR,
-                        "MapNotAnImage",
-                        f"OpenImageIO cannot read pixels of {path}: {inp.geterror()}",
-                    )
-                )
-            else:
-                spread = float(np.max(np.ptp(np.asarray(pixels).reshape(-1, 3), axis=1)))
-                if spread > 1.0 / 255.0:
-                    problems.append(
-                        (
-                            WARN,
-                            "MapNotGrey",
-                            f"{path} has colour channels that differ (by up to {spread:.3f}); "
-                            "Pavonine reads its first channel",
-                        )
-                    )
+        elif not any(p[0] == ERROR for p in problems):  # never decode a refused map
+            problems += _pixel_problems(inp, path, colour)
     finally:
         inp.close()
     return problems, size

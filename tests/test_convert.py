@@ -251,9 +251,9 @@ def test_moved_asset_renders(asset, tmp_path):
         "-q",
     )
     assert result.exit_code == 0, result.output
-    from pavonine.pipeline.maps.io import read_map as read
+    from pavonine.render.imageio import read_exr  # a render, not a map: HDR, beyond 1
 
-    image = read(out, "render")
+    image, _ = read_exr(out)
     assert image.max() > 0
 
 
@@ -334,11 +334,29 @@ def _bad_case(workdir: Path, tmp_path: Path, case: str) -> tuple[Path, str, str]
     if case == "missing":
         (folder / "melanin.png").unlink()
         return recipe, str(folder / "melanin.png"), "maps.melanin"
+    if case in ("below-range", "above-range"):  # float maps are not clipped into [0, 1]
+        key, value = ("melanin", -3.0) if case == "below-range" else ("gradation", 7.0)
+        _float_exr(folder / f"{key}.exr", np.full((256, 128), value, np.float32))
+        recipe.write_text(recipe_text("bad_feather").replace(f"m/{key}.png", f"m/{key}.exr"))
+        return recipe, str(folder / f"{key}.exr"), f"maps.{key}: values outside [0, 1]"
     recipe.write_text(recipe_text("bad_feather") + "[render]\nspp = 3\n")
     return recipe, str(recipe), "render"
 
 
-@pytest.mark.parametrize("case", ["aspect", "unreadable", "transparent", "missing", "unknown-key"])
+def _float_exr(path: Path, values: np.ndarray) -> None:
+    """A single-channel float EXR as someone else writes it (``write_map`` would clip)."""
+    import OpenImageIO as oiio
+
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(values.shape[1], values.shape[0], 1, "float"))
+    out.write_image(values[..., None].copy())
+    out.close()
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["aspect", "unreadable", "transparent", "missing", "unknown-key", "below-range", "above-range"],
+)
 def test_bad_input_fails_on_one_line_and_writes_nothing(workdir, tmp_path, case):
     recipe, file, field = _bad_case(workdir, tmp_path, case)
     out = tmp_path / "out"

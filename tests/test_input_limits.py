@@ -410,6 +410,35 @@ def test_map_with_nan_pixels_names_the_file_and_field(tmp_path):
     assert str(caught.value) == f"{path}: maps.gradation: contains NaN or infinite values"
 
 
+def _float_exr(path: Path, pixels: np.ndarray) -> Path:
+    import OpenImageIO as oiio
+
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 1, "float"))
+    out.write_image(pixels.astype(np.float32)[..., None].copy())
+    out.close()
+    return path
+
+
+@pytest.mark.parametrize(("value", "words"), [(-3.0, "min -3, max 0.5"), (7.0, "min 0.5, max 7")])
+def test_float_map_out_of_range_names_the_file_and_field(tmp_path, value, words):
+    """Values beyond [0, 1] are refused, not clipped; within ``RANGE_TOLERANCE`` (float round-off)
+    they are read, clamped."""
+    from pavonine.pipeline.maps.io import RANGE_TOLERANCE, read_map
+
+    pixels = np.full((8, 8), value)
+    pixels[0, 0] = 0.5
+    path = _float_exr(tmp_path / "melanin.exr", pixels)
+    with pytest.raises(InputError) as caught:
+        read_map(path, "maps.melanin")
+    assert str(caught.value) == f"{path}: maps.melanin: values outside [0, 1] ({words})"
+    slack = RANGE_TOLERANCE / 2
+    _float_exr(path, np.clip(pixels, -slack, 1 + slack))
+    values = read_map(path, "maps.melanin")
+    assert values.min() == 0.0 or values.max() == 1.0
+    assert values.min() >= 0.0 and values.max() <= 1.0
+
+
 # ----------------------------------------------------------------------------- the commands
 def test_compare_of_a_30000x30000_png(huge_pngs):
     path = huge_pngs["30000"]

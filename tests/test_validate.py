@@ -166,6 +166,69 @@ def test_colour_map_warns_and_non_raw_colour_space_errors(tmp_path):
     assert "ERROR /Feather pavonine:gradationMap: data map must be read raw" in out
 
 
+def write_exr(path: Path, value: float, size: int = 32) -> Path:
+    """A single-channel float EXR map holding ``value`` everywhere (``write_map`` would clip)."""
+    import OpenImageIO as oiio
+
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(size, size, 1, "float"))
+    out.write_image(np.full((size, size, 1), value, dtype=np.float32))
+    out.close()
+    return path
+
+
+def use_map(stage, key: str, path: Path) -> None:
+    from pxr import Sdf
+
+    attr = stage.GetPrimAtPath("/Feather").GetAttribute(f"pavonine:{key}Map")
+    attr.Set(Sdf.AssetPath(f"./maps/{path.name}"))
+    stage.GetRootLayer().Save()
+
+
+@pytest.mark.parametrize(
+    ("key", "damage", "words"),
+    [
+        ("ocellar", "truncated", "OpenImageIO cannot read pixels of"),
+        ("melanin", float("nan"), "contains NaN or infinite values"),
+        ("melanin", -3.0, "values outside [0, 1] (min -3, max -3)"),
+        ("gradation", 7.0, "values outside [0, 1] (min 7, max 7)"),
+    ],
+)
+def test_single_channel_map_with_bad_pixels_is_an_error_naming_file_and_attribute(
+    tmp_path, key, damage, words
+):
+    """Pixels are decoded for any channel count: a truncated PNG whose header is intact, NaN and
+    out-of-range values are errors, as ``convert`` refuses them (docs/pipeline.md: in [0, 1])."""
+    path, stage = authored_asset(tmp_path)
+    if damage == "truncated":  # noise, so that half of the file is well past its header
+        from pavonine.pipeline.maps.io import write_map
+
+        file = tmp_path / "maps" / f"{key}.png"
+        write_map(file, np.random.default_rng(1).random((32, 32)))
+        data = file.read_bytes()
+        file.write_bytes(data[: len(data) // 2])
+    else:
+        file = write_exr(tmp_path / "maps" / f"{key}.exr", damage)
+        use_map(stage, key, file)
+    code, out, _ = run(str(path))
+    assert code == 1, out
+    line = next(line for line in out.splitlines() if line.startswith("ERROR"))
+    assert line.startswith(f"ERROR /Feather pavonine:{key}Map: ") and str(file) in line, out
+    assert words in line, out
+
+
+def test_float_map_within_the_round_off_tolerance_is_clean(tmp_path):
+    from pavonine.pipeline.maps.io import RANGE_TOLERANCE
+
+    path, stage = authored_asset(tmp_path)
+    use_map(stage, "melanin", write_exr(tmp_path / "maps" / "melanin.exr", 1 + RANGE_TOLERANCE / 2))
+    use_map(
+        stage, "gradation", write_exr(tmp_path / "maps" / "gradation.exr", -RANGE_TOLERANCE / 2)
+    )
+    code, out, err = run(str(path))
+    assert (code, out) == (0, "1 file, no findings\n"), out + err
+
+
 def test_several_files_prefix_lines_and_worst_exit_wins(tmp_path):
     shutil.copy(DATA / "minimal_feather.usda", tmp_path / "good.usda")
     code, out, _ = run(str(tmp_path / "good.usda"), str(DATA / "negative_radius.usda"))

@@ -30,6 +30,10 @@ ASPECT_TOLERANCE = 0.01
 #: Rec. 709 luma weights, used only when someone hands us an RGB(A) "grey" map.
 _REC709_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
 
+#: How far a float map's values may lie outside [0, 1] and still be read (clamped): float
+#: round-off of a value meant to be 0 or 1, never a value meant to be out of range.
+RANGE_TOLERANCE = 1e-6
+
 
 def write_map(
     path: str | os.PathLike,
@@ -100,13 +104,10 @@ def read_data_map(path: str | os.PathLike, field: str) -> DataMap:
         error = image.geterror()
     if pixels is None:
         raise InputError(where, f"unreadable image ({error.strip() or 'no pixels'})")
-    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
-    if spec.nchannels >= 3:
-        grey = pixels[..., :3] @ _REC709_LUMA
-    else:
-        grey = pixels[..., 0]
-    if not np.all(np.isfinite(grey)):
-        raise InputError(where, "contains NaN or infinite values")
+    grey = grey_values(pixels, spec)
+    problem = value_problem(grey)
+    if problem:
+        raise InputError(where, problem)
     is_float = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
     return DataMap(np.clip(grey, 0.0, 1.0), is_float)
 
@@ -132,6 +133,28 @@ def check_aspects(
             )
 
 
+def grey_values(pixels: np.ndarray, spec: oiio.ImageSpec) -> np.ndarray:
+    """The grey ``[row, column]`` of an image's decoded pixels (all ``spec.nchannels``): the
+    first channel, or the Rec. 709 luma of RGB(A)."""
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    if spec.nchannels >= 3:
+        return pixels[..., :3] @ _REC709_LUMA
+    return pixels[..., 0]
+
+
+def value_problem(grey: np.ndarray) -> str | None:
+    """Why a map's grey values are unusable (non-finite, or outside [0, 1] by more than
+    :data:`RANGE_TOLERANCE`), or ``None``."""
+    if not np.all(np.isfinite(grey)):
+        return "contains NaN or infinite values"
+    if grey.size == 0:
+        return None
+    low, high = float(grey.min()), float(grey.max())
+    if low < -RANGE_TOLERANCE or high > 1.0 + RANGE_TOLERANCE:
+        return f"values outside [0, 1] (min {low:g}, max {high:g})"
+    return None
+
+
 def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
     """Read a grey map as float32 ``[row, column]`` in [0, 1]; ``field`` names it in errors.
 
@@ -139,7 +162,7 @@ def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
     RGB(A) is reduced to Rec. 709 luma. Pixel values are taken as stored (no colour
     transform). Raises :class:`InputError` naming the file and field when it is not a regular
     file, unreadable, empty, beyond the pixel budget (checked from the header, before decoding:
-    :mod:`pavonine.limits`) or non-finite.
+    :mod:`pavonine.limits`), non-finite or outside [0, 1] (beyond :data:`RANGE_TOLERANCE`).
     """
     return read_data_map(path, field).values
 
