@@ -6,6 +6,7 @@ within the pixel budget of :mod:`pavonine.limits`, and is read raw, by the schem
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable
 
 from pxr import Usd, UsdShade
@@ -122,12 +123,38 @@ def _image_problems(path: str) -> tuple[list[tuple[str, str, object]], tuple[int
     return problems, size
 
 
+def _odd_sizes(prim: Usd.Prim, sizes: dict[str, tuple[int, int]], files: dict[str, str]) -> list:
+    """A warning on each map (``sizes`` and ``files`` by attribute) whose size differs from the
+    common one: the size most maps share, the alpha map's on a tie (convert measures the others
+    against it)."""
+    counts = Counter(sizes.values())
+    if len(counts) < 2:
+        return []
+    alpha = sizes.get(authoring.MAP_ATTRS["alpha"])
+    common = max(counts, key=lambda size: (counts[size], size == alpha))
+    alike = ", ".join(n.split(":")[1] for n, size in sizes.items() if size == common)
+    verb = "is" if counts[common] == 1 else "are"
+    return [
+        validation_error(
+            prim,
+            "MapSizesDiffer",
+            f"maps differ in size: {files[name]} is {w}x{h}, while {alike} {verb} "
+            f"{common[0]}x{common[1]}",
+            name,
+            WARN,
+        )
+        for name, (w, h) in sizes.items()
+        if (w, h) != common
+    ]
+
+
 def feather_maps(prim: Usd.Prim, time_range=None) -> list:
     """Maps exist, load with OpenImageIO, are grey (or convertible), have sane sizes, read raw."""
     if prim.IsPseudoRoot() or not has_feather_api(prim):
         return []
     errors = []
     sizes: dict[str, tuple[int, int]] = {}
+    files: dict[str, str] = {}
     for name in authoring.MAP_ATTRS.values():
         attr = typed_attr(prim, name)  # a wrongly typed map is reported by feather_parameters
         value = attr.Get() if attr else None
@@ -155,13 +182,8 @@ def feather_maps(prim: Usd.Prim, time_range=None) -> list:
         for severity, err_name, message in problems:
             errors.append(validation_error(prim, err_name, message, name, severity))
         if size is not None:
-            sizes[name] = size
-    if len(set(sizes.values())) > 1:
-        detail = ", ".join(f"{n.split(':')[1]} {w}x{h}" for n, (w, h) in sizes.items())
-        first = next(iter(sizes))
-        errors.append(
-            validation_error(prim, "MapSizesDiffer", f"maps differ in size: {detail}", first, WARN)
-        )
+            sizes[name], files[name] = size, value.resolvedPath
+    errors += _odd_sizes(prim, sizes, files)
     maps = {
         v.resolvedPath
         for v in (schema_value(prim, n) for n in authoring.MAP_ATTRS.values())

@@ -229,6 +229,34 @@ def test_float_map_within_the_round_off_tolerance_is_clean(tmp_path):
     assert (code, out) == (0, "1 file, no findings\n"), out + err
 
 
+@pytest.mark.parametrize(
+    ("odd", "common", "alike"),
+    [
+        (["gradation"], 32, "alphaMap, ocellarMap, angleMap, displacementMap, melaninMap are"),
+        (["angle", "displacement", "melanin"], 64, "alphaMap, ocellarMap, gradationMap are"),
+    ],
+)
+def test_maps_of_another_size_are_named_with_their_sizes(tmp_path, odd, common, alike):
+    """Each map whose size differs from most maps' (the alpha map's on a tie) is named with its
+    file and size; the maps of the common size are named with theirs."""
+    size = {key: 32 if common == 64 else 64 for key in odd}
+    keys = ("alpha", "ocellar", "gradation", "angle", "displacement", "melanin")
+    sizes = {key: {"size": size.get(key, common)} for key in keys}
+    path, _stage = authored_asset(tmp_path, **sizes)
+    code, out, _ = run("--json", "-", str(path))
+    findings = [f for f in json.loads(out)["findings"] if f["message"].startswith("maps differ")]
+    assert code == 0
+    assert [(f["severity"], f["field"]) for f in findings] == [
+        ("WARNING", f"pavonine:{key}Map") for key in odd
+    ]
+    for key, finding in zip(odd, findings, strict=True):
+        odd_size = size[key]
+        assert finding["message"] == (
+            f"maps differ in size: {tmp_path / 'maps' / key}.png is {odd_size}x{odd_size}, "
+            f"while {alike} {common}x{common}"
+        )
+
+
 def test_several_files_prefix_lines_and_worst_exit_wins(tmp_path):
     shutil.copy(DATA / "minimal_feather.usda", tmp_path / "good.usda")
     code, out, _ = run(str(tmp_path / "good.usda"), str(DATA / "negative_radius.usda"))
