@@ -44,6 +44,8 @@ MIN_MAP_SIDE = 8
 #: maps' height is the feather's length, so a 4000x1 map asks for a vane 4000 times wider than
 #: long: xatlas charts that sliver without end.
 MAX_MAP_ASPECT = 8.0
+#: Two maps have "equal aspect" when width/height differ by less than this fraction.
+ASPECT_TOLERANCE = 0.01
 #: Largest recipe file (TOML); the shipped recipes are about 2 KiB.
 MAX_RECIPE_BYTES = 1 << 20
 #: Inclusive range of every seed (maps, renders, trains): Mitsuba's seed is a ``uint32``.

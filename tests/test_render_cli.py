@@ -69,6 +69,26 @@ def test_bad_data_renders_what_it_can_with_warnings_naming_prims(tmp_path):
     assert centre[1] > 1.5 * centre[0]  # the texture's green fallback colour is used
 
 
+@pytest.mark.render
+def test_map_of_another_aspect_warns_naming_the_file_and_attribute(tmp_path):
+    """``convert`` refuses maps whose width:height differ; a render of such an asset stretches
+    the odd map over the feather and says so, naming the attribute and the file."""
+    import shutil
+
+    from pavonine.pipeline.maps.io import write_map
+
+    asset = tmp_path / "blue_feather"
+    shutil.copytree(Path(__file__).parents[1] / "assets" / "feathers" / "blue_feather", asset)
+    odd = asset / "maps" / "gradation.png"
+    write_map(odd, np.full((64, 64), 0.5))
+    out = tmp_path / "r.exr"
+    result = run(asset / "blue_feather.usd", "-o", out, "--spp", 2, "--resolution", "32x24", "-q")
+    assert result.exit_code == 0, result.output
+    warned = [line for line in result.stderr.splitlines() if "pavonine:gradationMap" in line]
+    assert len(warned) == 1 and str(odd) in warned[0], result.stderr
+    assert "is 64x64, not the width:height of the alpha map's 737x1024" in warned[0]
+
+
 def test_broken_layer_is_a_one_line_error_and_writes_nothing(tmp_path):
     out = tmp_path / "broken.exr"
     result = run(DATA / "broken_layer.usda", "-o", out, "--spp", 1, "-q")

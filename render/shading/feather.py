@@ -79,6 +79,7 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
         except (AssetReadError, OSError):
             diag.warn(path, f"{name} map {file!r} not found; using the map's neutral value")
             maps[name] = None
+    _check_aspects(path, maps, diag)
     plugin.register()
     _check_spectral(path)
     bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
@@ -91,6 +92,34 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
         two_sided=True,
         is_feather=True,
     )
+
+
+def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) -> None:
+    """Warn about each map whose width:height differs from the alpha map's (else the first
+    map's): every map spans the feather's uv square, so such a map is stretched over it
+    (``convert`` refuses it). Only headers are read."""
+    from pavonine.limits import ASPECT_TOLERANCE, check_image
+    from pavonine.schemas.authoring import MAP_ATTRS
+
+    sizes: dict[str, tuple[int, int]] = {}
+    for name, file in maps.items():
+        try:
+            size = check_image(file) if file else (0, 0)
+        except InputError:
+            continue  # not an image, or beyond the pixel budget: the bitmap's load says so
+        if min(size) > 0:
+            sizes[name] = size
+    if not sizes:
+        return
+    ref = "alpha" if "alpha" in sizes else next(iter(sizes))
+    ref_w, ref_h = sizes[ref]
+    for name, (w, h) in sizes.items():
+        if abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE:
+            diag.warn(
+                path,
+                f"{MAP_ATTRS[name]} {maps[name]!r} is {w}x{h}, not the width:height of the "
+                f"{ref} map's {ref_w}x{ref_h}; it is stretched over the feather",
+            )
 
 
 def _check_spectral(path: str) -> None:
