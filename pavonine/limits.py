@@ -54,6 +54,13 @@ SEED_RANGE = (0, 2**32 - 1)
 _override: int | None = None
 
 
+def aspects_differ(size: tuple[int, int], reference: tuple[int, int]) -> bool:
+    """Two ``(width, height)`` sizes whose width:height differ by more than
+    :data:`ASPECT_TOLERANCE` (a fraction): such maps cannot span the same feather."""
+    (w, h), (ref_w, ref_h) = size, reference
+    return abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE
+
+
 def set_max_pixels(count: int | None) -> None:
     """Use ``count`` as the pixel budget for the rest of the process (``None``: env or default)."""
     global _override

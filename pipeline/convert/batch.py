@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.limits import ASPECT_TOLERANCE, MAX_MAP_ASPECT, MIN_MAP_SIDE
+from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE
 from pavonine.materials.parameters import ParameterError
 from pavonine.pipeline.commit import recover
 from pavonine.pipeline.convert.asset import (

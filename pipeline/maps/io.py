@@ -18,14 +18,11 @@ import numpy as np
 import OpenImageIO as oiio
 from scipy import ndimage
 
-from pavonine.limits import open_image
+from pavonine.limits import aspects_differ, open_image
 from pavonine.pipeline.errors import InputError
 
 #: Colour space written into every map (data, not colour).
 DATA_COLORSPACE = "Raw"
-
-#: How far (relative) a map's width:height may stray from the reference map's.
-ASPECT_TOLERANCE = 0.01
 
 #: Rec. 709 luma weights, used only when someone hands us an RGB(A) "grey" map.
 _REC709_LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
@@ -125,7 +122,7 @@ def check_aspects(
     ref_h, ref_w = maps[reference].shape
     for name, values in maps.items():
         h, w = values.shape
-        if abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE:
+        if aspects_differ((w, h), (ref_w, ref_h)):
             raise InputError(
                 where[name],
                 f"aspect {w}x{h} differs from the {reference} map's {ref_w}x{ref_h}; "

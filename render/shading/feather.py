@@ -98,7 +98,7 @@ def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) ->
     """Warn about each map whose width:height differs from the alpha map's (else the first
     map's): every map spans the feather's uv square, so such a map is stretched over it
     (``convert`` refuses it). Only headers are read."""
-    from pavonine.limits import ASPECT_TOLERANCE, check_image
+    from pavonine.limits import aspects_differ, check_image
     from pavonine.schemas.authoring import MAP_ATTRS
 
     sizes: dict[str, tuple[int, int]] = {}
@@ -114,7 +114,7 @@ def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) ->
     ref = "alpha" if "alpha" in sizes else next(iter(sizes))
     ref_w, ref_h = sizes[ref]
     for name, (w, h) in sizes.items():
-        if abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE:
+        if aspects_differ((w, h), (ref_w, ref_h)):
             diag.warn(
                 path,
                 f"{MAP_ATTRS[name]} {maps[name]!r} is {w}x{h}, not the width:height of the "
