@@ -78,19 +78,22 @@ def test_spectra_json_to_stdout_alone_writes_no_files(runner, tmp_path, monkeypa
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
-        (["--interval", "150", "--radius", "-65", "--layers", "10"], "radius"),
+        (["--interval", "150", "--radius", "-65", "--layers", "10"], "--radius: must be positive"),
         (["--interval", "100", "--radius", "70", "--layers", "4"], "rods overlap"),
-        (["--interval", "150", "--radius", "65", "--layers", "0"], "count"),
+        (["--interval", "150", "--radius", "65", "--layers", "0"], "--layers: must be a whole"),
+        (["--interval", "150", "--radius", "65", "--layers", "2.5"], "--layers: must be a whole"),
         (
             ["--interval", "nan", "--radius", "65", "--layers", "4"],
             "--interval: must be a finite number",
         ),
-        (["--observe", "95"], "observe"),
+        (["--observe", "95"], "--observe: must lie inside"),
         (["--incidence", "nan"], "--incidence: must be a finite number"),
-        (["--class", "9"], "unknown class 9"),
-        (["--preset", "green"], "unknown preset"),
+        (["--class", "9"], "--class: unknown class 9"),
+        (["--preset", "green"], "--preset: unknown preset"),
         (["--azimuth", "nan"], "azimuth"),
         (["--gradation", "nan"], "gradation"),
+        (["--gradation", "2"], "--gradation: must lie in [0, 1]"),
+        (["--structural-share", "3"], "--structural-share: must lie in [0, 1]"),
         (["--interval", "0.19", "--radius", "0.07", "--layers", "4"], "nanometres"),
     ],
 )

@@ -91,11 +91,15 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
             if math.isnan(value):
                 raise InputError(name, "is NaN")
         for name, value in (("--interval", interval), ("--radius", radius)):
-            if 0 < value < 1.0:
+            if value <= 0:
+                raise InputError(name, f"must be positive, got {value:g} nm")
+            if value < 1.0:
                 raise InputError(
                     name,
                     f"is in nanometres; {value:g} nm is below 1 nm (did you mean {value * 1000:g}?)",
                 )
+        if layers != int(layers) or layers < 1:
+            raise InputError("--layers", f"must be a whole number of layers >= 1, got {layers:g}")
         if layers > MAX_LAYER_COUNT:
             raise InputError("--layers", f"must be at most {MAX_LAYER_COUNT}, got {layers:g}")
         params = uniform_parameters(interval / 1000.0, radius / 1000.0, layers)
@@ -206,6 +210,35 @@ def spectra(
 
     Colours are display-referred through the display transform (--ocio-config, --view, …).
     """
+    from pavonine.materials.parameters import ParameterError
+
+    try:
+        _spectra(
+            preset_name, ocellar_class, gradation, interval, radius, layers, interference,
+            incidence, observe, azimuth, structural_share, output, json_target, display,
+        )  # fmt: skip
+    except ParameterError as exc:  # the model names its arguments; the user typed options
+        raise InputError(OPTION_OF_FIELD.get(exc.field, exc.field), exc.reason) from None
+
+
+#: The option behind each argument of the optics functions that a ParameterError names.
+OPTION_OF_FIELD = {
+    "ocellar_class": "--class",
+    "preset": "--preset",
+    "gradation": "--gradation",
+    "incidence": "--incidence",
+    "observe": "--observe",
+    "azimuth": "--azimuth",
+    "structural_share": "--structural-share",
+    "interference": "--interference",
+}
+
+
+def _spectra(
+    preset_name, ocellar_class, gradation, interval, radius, layers, interference, incidence,
+    observe, azimuth, structural_share, output, json_target, display,
+) -> None:  # fmt: skip
+    """The body of :func:`spectra`."""
     from pavonine.materials import optics
 
     params, label = resolve_parameters(
