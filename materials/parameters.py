@@ -296,7 +296,7 @@ class FeatherParameters:
         if not 0 <= ocellar_class < len(self.classes):
             raise ParameterError(
                 "ocellar_class",
-                f"unknown class {ocellar_class}; this material has {len(self.classes)} classes",
+                f"unknown class {ocellar_class}; this material has {len(self.classes)} class{'es' * (len(self.classes) != 1)}",
             )
         return self.classes[ocellar_class].at(gradation)
 

@@ -215,7 +215,7 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
         others = ", ".join(f"{n}={k}" for n, k in lengths.items() if n != odd)
         raise ParameterError(
             odd,
-            f"has {lengths[odd]} classes; the six per-class arrays must be equally long (>= 1): "
+            f"has {lengths[odd]} class{'es' * (lengths[odd] != 1)}; the six per-class arrays must be equally long (>= 1): "
             f"{others}",
         )
     scalars: dict[str, object] = {}
@@ -237,7 +237,8 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
         if rows and len(rows) != n_classes:
             raise ParameterError(
                 name,
-                f"has {len(rows)} classes but the material has {n_classes} (or leave it empty)",
+                f"has {len(rows)} class{'es' * (len(rows) != 1)} but the material has {n_classes} "
+                "(or leave it empty)",
             )
         arrays[key] = rows
     for field, attrs in DISPERSION_ATTRS.items():

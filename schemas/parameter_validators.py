@@ -180,7 +180,7 @@ def feather_parameters(prim: Usd.Prim, time_range=None) -> list:
                     validation_error(
                         prim,
                         "ArrayLengthMismatch",
-                        f"has {n} classes but pavonine:long:layerInterval has {reference}; "
+                        f"has {n} class{'es' * (n != 1)} but pavonine:long:layerInterval has {reference}; "
                         "all six per-class arrays must have the same length",
                         name,
                     )

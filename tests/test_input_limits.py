@@ -234,7 +234,7 @@ def test_crescent_sigma_nan_in_usd_render_names_the_layer_and_attribute(tmp_path
 @pytest.mark.parametrize(
     "attribute, value, type_name, reason",
     [
-        ("pavonine:long:rodRadius", [(0.05, 0.05)], "Float2Array", "has 1 classes"),
+        ("pavonine:long:rodRadius", [(0.05, 0.05)], "Float2Array", "has 1 class;"),
         ("pavonine:crescentSigma", "wide", "String", "is authored as string"),
     ],
 )
