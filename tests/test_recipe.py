@@ -91,7 +91,11 @@ def test_unknown_keys_are_rejected_naming_file_and_key(tmp_path, before, after, 
         # rods that overlap (pi*a > 2d) are unphysical: ParameterError mapped to the recipe key
         ("[material.class.0.long]\nradius = 0.2\n", "material.class.0.long.radius", "overlap"),
         ("[geometry]\nlength_cm = -2\n", "geometry.length_cm", "positive"),
-        ("[geometry.lod]\nhigh = 100\nmedium = 500\nlow = 100\n", "geometry.lod", "high >="),
+        (
+            "[geometry.lod]\nhigh = 100\nmedium = 500\nlow = 100\n",
+            "geometry.lod",
+            "got high = 100, medium = 500, low = 100",  # the recipe's words, not a Python repr
+        ),
     ],
 )
 def test_bad_values_name_the_key(tmp_path, extra, key, words):

@@ -187,7 +187,10 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
             targets = LodTargets(**lod)
             if not targets.high >= targets.medium >= targets.low >= 100:
                 raise _fail(
-                    path, key, f"need high >= medium >= low >= 100 triangles, got {targets}"
+                    path,
+                    key,
+                    "need high >= medium >= low >= 100 triangles, got "
+                    f"high = {targets.high}, medium = {targets.medium}, low = {targets.low}",
                 )
             values["lod"] = targets
         elif f.name == "base_triangles":
