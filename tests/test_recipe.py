@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from pavonine.materials.parameters import freyer_class, preset
@@ -213,3 +215,11 @@ def test_an_unknown_region_names_the_key(tmp_path, value):
     text = MINIMAL + f"[material.class.1]\nregion = {value}\n"
     message = str(_error(tmp_path, text))
     assert "material.class.1.region: unknown region" in message and "blue-green" in message
+
+
+def test_a_byte_order_mark_is_read_past(tmp_path):
+    """Windows editors save UTF-8 with a byte-order mark; the recipe is the same recipe."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + MINIMAL.encode())
+    plain = parse_recipe(_write(tmp_path, MINIMAL))
+    assert dataclasses.replace(parse_recipe(path), path=plain.path) == plain

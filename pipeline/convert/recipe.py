@@ -390,7 +390,7 @@ def read_toml(path: str | os.PathLike) -> tuple[Path, dict]:
     except (OSError, RuntimeError) as exc:  # Python 3.11's resolve() raises RuntimeError on loops
         raise InputError(where, f"cannot resolve ({exc})") from None
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")  # a leading byte-order mark (Windows editors) is dropped
     except UnicodeDecodeError as exc:
         raise InputError(
             str(path), f"not UTF-8 text (byte {exc.start}); recipes are UTF-8 TOML"
