@@ -326,7 +326,10 @@ def _job(
                 diag,
             )
         except ValueError as exc:
-            raise InputError(camera_path, str(exc).split(": ", 1)[-1]) from None
+            stack = prim.GetPrimStack()
+            layer = stack[0].layer if stack else None
+            where = f"{layer.realPath or layer.identifier}: {camera_path}" if layer else camera_path
+            raise InputError(where, str(exc).split(": ", 1)[-1]) from None
         if product.disable_dof and sensor.sensor["type"] == "thinlens":
             sensor.sensor["type"] = "perspective"
             del sensor.sensor["aperture_radius"], sensor.sensor["focus_distance"]

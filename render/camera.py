@@ -52,7 +52,15 @@ def translate_camera(
     image_aspect = width * pixel_aspect / height
     ha, va = camera.horizontalAperture, camera.verticalAperture
     if ha <= 0 or va <= 0 or camera.focalLength <= 0:
-        raise ValueError(f"{where}: focalLength and apertures must be positive")
+        lens = ", ".join(
+            f"{name} = {value:g}"
+            for name, value in (
+                ("focalLength", camera.focalLength),
+                ("horizontalAperture", ha),
+                ("verticalAperture", va),
+            )
+        )
+        raise ValueError(f"{where}: {lens}: focalLength and apertures must be positive")
     fit_horizontal = _fits_horizontally(ha / va, image_aspect, conform, where, diag)
     window_w = ha if fit_horizontal else va * image_aspect
     window_h = ha / image_aspect if fit_horizontal else va

@@ -293,6 +293,13 @@ def test_nan_focal_length_is_an_error_naming_the_camera_attribute(tmp_path):
     assert not out.exists()
 
 
+def test_zero_focal_length_names_the_layer_the_camera_and_the_values(tmp_path):
+    stage = scene(tmp_path, camera="float focalLength = 0")
+    out = tmp_path / "zero.exr"
+    assert_one_error(render(stage, out), f"{stage}: /Cam: focalLength = 0, horizontalAperture")
+    assert not out.exists()
+
+
 def test_nan_camera_transform_is_an_error_naming_the_xform_op(tmp_path):
     stage = scene(tmp_path, camera_translate="(nan, 0, 5)")
     assert_one_error(render(stage, tmp_path / "x.exr"), "/Cam", "/Cam.xformOp:translate")
