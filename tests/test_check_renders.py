@@ -114,6 +114,16 @@ def test_baseline_update_rejects_unknown_scene_and_equal_seeds(fake_repo: Path):
     assert result.exit_code == 2 and "no such scene (shipped scenes: blue, eye)" in result.output
     result = invoke("baseline", "update", "eye", "--check-seed", "0", *dirs(fake_repo))
     assert result.exit_code == 2 and "--check-seed" in result.output
+    missing = fake_repo / "nowhere"
+    result = invoke("check-renders", "eye", "--scenes-dir", str(missing))
+    assert (
+        result.exit_code == 2 and f"error: --scenes-dir {missing}: no such folder" in result.output
+    )
+    result = invoke("baseline", "update", "eye", "--check-spp", "0", *dirs(fake_repo))
+    assert (
+        result.exit_code == 2
+        and "error: --check-spp: samples per pixel must be positive, got 0" in result.output
+    )
 
 
 def test_check_renders_passes_then_catches_a_change_and_reports_it(fake_repo: Path):

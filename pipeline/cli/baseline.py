@@ -164,8 +164,9 @@ def update(
 
     if not scenes and not all_scenes:
         raise InputError("baseline update", "name at least one SCENE, or pass --all")
-    if spp <= 0 or check_spp <= 0:
-        raise InputError("--spp/--check-spp", "samples per pixel must be positive")
+    for option, value in (("--spp", spp), ("--check-spp", check_spp)):
+        if value <= 0:
+            raise InputError(option, f"samples per pixel must be positive, got {value}")
     if seed == check_seed:
         raise InputError("--check-seed", "must differ from --seed (a check must not replay it)")
     size = None if resolution == "auto" else parse_resolution(resolution)

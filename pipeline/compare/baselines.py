@@ -127,6 +127,8 @@ def resolve_stage(scene: str, scenes_dir: str | Path = SCENES_DIR) -> Path:
     stage = Path(scenes_dir) / f"{scene}.usda"
     if stage.is_file():
         return stage
+    if not Path(scenes_dir).is_dir():
+        raise InputError(f"--scenes-dir {scenes_dir}", "no such folder")
     known = ", ".join(scene_name(p) for p in shipped_scenes(scenes_dir)) or "none"
     raise InputError(scene, f"no such scene (shipped scenes: {known})")
 
