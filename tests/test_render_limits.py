@@ -381,3 +381,12 @@ def test_limits_from_flags_zero_lifts_a_ceiling():
     with pytest.raises(InputError, match="6 instances"):
         limits.check_instances(6, "/PI")
     assert RenderLimits().pixels == MAX_PIXELS and RenderLimits().instances == MAX_INSTANCES
+
+
+def test_a_warning_is_said_once_though_the_stage_is_read_twice(tmp_path):
+    """The stage is read for its settings and again for the render; each warning shows once."""
+    run = render(Path(__file__).parent / "data" / "render" / "wrong_types.usda", tmp_path / "w.exr")
+    assert run.returncode == 0, run.stderr
+    lines = run.stderr.splitlines()
+    assert sum("inputs:intensity = nan is not a finite number" in line for line in lines) == 1
+    assert len(lines) == len(set(lines)), run.stderr

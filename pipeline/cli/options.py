@@ -230,10 +230,14 @@ def configure_logging(level_offset: int = 0) -> None:
 
 @contextlib.contextmanager
 def warnings_to_log(*categories: type[Warning]) -> Iterator[None]:
-    """Inside the block, every warning of ``categories`` (each once) becomes ``log.warning``."""
+    """Inside the block, every warning of ``categories`` becomes ``log.warning``, each distinct
+    message once (a stage read twice, for its settings and for the render, warns twice)."""
+    said: set[str] = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
-        log.warning("%s", message)
+        if str(message) not in said:
+            said.add(str(message))
+            log.warning("%s", message)
 
     with warnings.catch_warnings():
         for category in categories or (Warning,):
