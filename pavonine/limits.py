@@ -28,6 +28,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from pavonine.native_output import captured
 from pavonine.pipeline.errors import InputError
 
 #: Pixels (width × height × depth) of the largest image read: 16384 × 16384, the largest map side
@@ -229,15 +230,27 @@ def open_image(
     config = oiio.ImageSpec()
     if unassociated_alpha:
         config.attribute("oiio:UnassociatedAlpha", 1)
-    image = oiio.ImageInput.open(os.fspath(path), config)
-    if image is None:
-        reason = oiio.geterror().strip().splitlines()
-        raise InputError(where, f"cannot read image ({reason[-1] if reason else 'unknown format'})")
-    try:
-        check_image_spec(where, image.spec())
-        yield image
-    finally:
-        image.close()
+    # libpng prints its own "libpng error: …" lines to stderr while OpenImageIO reads; OpenImageIO's
+    # geterror() says the same, and it is reported as one line (here, or by the caller)
+    with captured(2):
+        image = oiio.ImageInput.open(os.fspath(path), config)
+        if image is None:
+            reason = oiio.geterror().strip().splitlines()
+            raise InputError(
+                where, f"cannot read image ({reason[-1] if reason else 'unknown format'})"
+            )
+        try:
+            check_image_spec(where, image.spec())
+            yield image
+        finally:
+            image.close()
+
+
+def image_error(text: str) -> str:
+    """OpenImageIO's error text as one reason: its first line (the later ones repeat it through
+    the format library's words), or ``no pixels`` when it said nothing."""
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    return lines[0] if lines else "no pixels"
 
 
 def check_image(path: str | os.PathLike, where: str | None = None) -> tuple[int, int]:

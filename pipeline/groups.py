@@ -85,14 +85,17 @@ def read_mark(path: str | os.PathLike) -> GroupMark | None:
     """The group mark in ``path``'s header (no pixels decoded), or ``None`` if it has none."""
     import OpenImageIO as oiio
 
-    image = oiio.ImageInput.open(os.fspath(path))
-    if image is None:
-        oiio.geterror()
-        return None
-    try:
-        text = image.spec().get_string_attribute(GROUP_ATTRIBUTE, "")
-    finally:
-        image.close()
+    from pavonine.native_output import captured
+
+    with captured(2):  # libpng's own lines about a broken file: the file's reader reports it
+        image = oiio.ImageInput.open(os.fspath(path))
+        if image is None:
+            oiio.geterror()
+            return None
+        try:
+            text = image.spec().get_string_attribute(GROUP_ATTRIBUTE, "")
+        finally:
+            image.close()
     try:
         record = json.loads(text) if text else None
         folder = Path(os.path.abspath(path)).parent

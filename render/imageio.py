@@ -239,7 +239,7 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
     """Pixels (H×W×C float32) and header attributes of an image written by :func:`write_exr`."""
     import OpenImageIO as oiio
 
-    from pavonine.limits import open_image
+    from pavonine.limits import image_error, open_image
 
     with open_image(path) as image:  # a regular file within the pixel budget
         spec = image.spec()
@@ -247,7 +247,7 @@ def read_exr(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, Any]]:
         attributes = {a.name: a.value for a in spec.extra_attribs}
         error = image.geterror() if pixels is None else ""
     if pixels is None:
-        raise InputError(os.fspath(path), f"cannot read image: {error.strip() or 'no pixels'}")
+        raise InputError(os.fspath(path), f"cannot read image: {image_error(error)}")
     return np.asarray(pixels), attributes
 
 

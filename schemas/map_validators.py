@@ -11,6 +11,7 @@ from collections.abc import Iterable
 
 from pxr import Usd, UsdShade
 
+from pavonine.native_output import captured
 from pavonine.schemas import authoring
 from pavonine.schemas.feather_api import (
     ERROR,
@@ -178,7 +179,8 @@ def feather_maps(prim: Usd.Prim, time_range=None) -> list:
                 )
             )
             continue
-        problems, size = _image_problems(value.resolvedPath)
+        with captured(2):  # libpng's own lines: the finding says what it says
+            problems, size = _image_problems(value.resolvedPath)
         for severity, err_name, message in problems:
             errors.append(validation_error(prim, err_name, message, name, severity))
         if size is not None:

@@ -748,3 +748,24 @@ def test_validate_reports_maps_over_a_lowered_pixel_budget(tmp_path):
 def test_max_pixels_flag_lasts_only_as_long_as_its_command(tmp_path, huge_pngs):
     refused(["compare", "--max-pixels", "10", "a.png", "b.png"], "no such file")
     assert limits.max_pixels() == limits.DEFAULT_MAX_PIXELS
+
+
+def test_a_truncated_png_map_is_one_line_without_libpngs_own(tmp_path):
+    """libpng prints "libpng error: …" itself while OpenImageIO decodes; the user sees one line,
+    OpenImageIO's first reason (not its three lines escaped into one)."""
+    maps = write_maps(tmp_path / "maps", 64, 128)
+    png = maps / "ocellar.png"
+    png.write_bytes(png.read_bytes()[: png.stat().st_size // 2])
+    recipe = recipe_file(tmp_path, maps)
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [sys.executable, "-m", "pavonine.pipeline.cli", "convert", str(recipe), "-o", str(out)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("error: ") and done.stderr.count("\n") == 1, done.stderr
+    assert re.search(
+        f"{re.escape(str(png))}: maps.ocellar: (unreadable|cannot read) image \\(", done.stderr
+    )
+    assert "\\n" not in done.stderr
+    assert_nothing_left(out)

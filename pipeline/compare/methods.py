@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from pavonine.limits import open_image
+from pavonine.limits import image_error, open_image
 from pavonine.materials.display import (
     REFERENCE_DISPLAY,
     DisplayError,
@@ -94,7 +94,7 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, dict[str, object]]:
         pixels = inp.read_image("float")
         error = inp.geterror() if pixels is None else ""
     if pixels is None or not isinstance(pixels, np.ndarray) or pixels.size == 0:
-        raise InputError(str(path), f"corrupt or truncated image ({error.strip() or 'no pixels'})")
+        raise InputError(str(path), f"corrupt or truncated image ({image_error(error)})")
     pixels = np.asarray(pixels, dtype=np.float32)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]

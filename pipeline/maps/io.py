@@ -18,7 +18,7 @@ import numpy as np
 import OpenImageIO as oiio
 from scipy import ndimage
 
-from pavonine.limits import aspects_differ, open_image
+from pavonine.limits import aspects_differ, image_error, open_image
 from pavonine.pipeline.errors import InputError
 
 #: Colour space written into every map (data, not colour).
@@ -100,7 +100,7 @@ def read_data_map(path: str | os.PathLike, field: str) -> DataMap:
         pixels = image.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
         error = image.geterror()
     if pixels is None:
-        raise InputError(where, f"unreadable image ({error.strip() or 'no pixels'})")
+        raise InputError(where, f"unreadable image ({image_error(error)})")
     grey = grey_values(pixels, spec)
     problem = value_problem(grey)
     if problem:

@@ -33,7 +33,8 @@ import numpy as np
 from pxr import Ar, Sdf, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
-from pavonine.limits import check_image
+from pavonine.limits import check_image, image_error
+from pavonine.native_output import captured
 from pavonine.pipeline.errors import InputError
 from pavonine.render.shading.network import (
     COLOR,
@@ -216,11 +217,12 @@ def read_texels(resolved: str, space: str = "auto") -> tuple[np.ndarray, str | N
         raise TextureError(f"texture {exc}") from None
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)  # texels as stored, colour not premultiplied
-    buf = oiio.ImageBuf(path, 0, 0, config)
-    pixels = None if buf.has_error else buf.get_pixels(oiio.FLOAT)
+    with captured(2):  # libpng's own lines: the TextureError below says it in one
+        buf = oiio.ImageBuf(path, 0, 0, config)
+        pixels = None if buf.has_error else buf.get_pixels(oiio.FLOAT)
     if pixels is None or buf.has_error:
         raise TextureError(
-            f"cannot read texture {resolved!r}: {buf.geterror() or 'unknown format'}"
+            f"cannot read texture {resolved!r}: {image_error(buf.geterror()) or 'unknown format'}"
         )
     spec = buf.spec()
     values = np.asarray(pixels, dtype=np.float64).reshape(spec.height, spec.width, -1)
