@@ -50,13 +50,35 @@ def test_render_says_a_missing_reference_once_in_its_own_words(tmp_path):
     assert sum("nope.usda" in line for line in lines) == 1, done.stderr
 
 
-def test_package_passes_usd_warnings_on_as_one_line_each_and_validate_as_findings(tmp_path):
+def test_usd_warnings_become_one_log_line_each_unless_refused_or_reported(tmp_path):
+    import logging
+
+    from pxr import Usd
+
+    from pavonine.pipeline.cli.usd_diagnostics import REPORTED, usd_warnings_to_log
+    from pavonine.pipeline.errors import InputError
+
     stage = _missing_reference(tmp_path)
-    done = _pavonine("package", str(stage), "-o", str(tmp_path / "p.usdz"))
-    lines = done.stderr.splitlines()
-    assert not any(line.startswith("Warning: in ") for line in lines), done.stderr
-    assert any(line.startswith("warning: USD: ") and "nope.usda" in line for line in lines)
-    assert len(lines) == len(set(lines)), done.stderr
+    logger = logging.getLogger("pavonine.test_usd_diagnostics")
+    records: list[str] = []
+    handler = logging.Handler()
+    handler.emit = lambda record: records.append(record.getMessage())
+    logger.addHandler(handler)
+    with usd_warnings_to_log(logger):
+        Usd.Stage.Open(str(stage))
+        Usd.Stage.Open(str(stage), Usd.Stage.LoadAll)  # the same warning again, said once
+    assert len(records) == 1 and records[0].startswith("USD: /A: Could not open asset")
+    records.clear()
+    with pytest.raises(InputError), usd_warnings_to_log(logger):
+        Usd.Stage.Open(str(stage))
+        raise InputError("x", "bad input: its one error line is the answer")
+    with usd_warnings_to_log(logger, {REPORTED: True}):
+        Usd.Stage.Open(str(stage))
+    assert records == []
+
+
+def test_validate_reports_usd_warnings_as_findings_only(tmp_path):
+    stage = _missing_reference(tmp_path)
     checked = _pavonine("validate", str(stage))
     assert "nope.usda" in checked.stdout  # a finding
     assert "nope.usda" not in checked.stderr and "Warning: in " not in checked.stderr

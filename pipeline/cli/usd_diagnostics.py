@@ -6,7 +6,8 @@ opens (a command often opens the same stage twice), beside the command's own war
 same problem. While a command runs, a ``UsdUtils.CoalescingDiagnosticDelegate`` collects them
 instead; when the command ends each distinct one becomes ``warning: <what USD said>``, unless
 the command already warned about it in its own words, or reports USD's diagnostics itself
-(``validate``: :func:`reported_by_command`). USD errors are unaffected: they reach Python as
+(``validate``: :func:`reported_by_command`), or stops for bad input (its one error line is the
+answer). USD errors are unaffected: they reach Python as
 exceptions, which commands turn into one-line errors.
 """
 
@@ -19,7 +20,8 @@ import re
 from collections.abc import Iterator, MutableMapping
 from typing import Any
 
-from pavonine.pipeline.errors import one_line
+from pavonine.materials.parameters import ParameterError
+from pavonine.pipeline.errors import EXIT_BAD_INPUT, InputError, one_line
 
 #: USD's suffix naming the stage object (``(instantiating stage on stage @a.usda@ <0x55…>)``).
 _STAGE_SUFFIX = re.compile(
@@ -86,14 +88,21 @@ def usd_warnings_to_log(
     said = _Said()
     logger.addFilter(said)
     delegate = UsdUtils.CoalescingDiagnosticDelegate()
+    refused = False
     try:
         yield
+    except SystemExit as exc:
+        refused = exc.code == EXIT_BAD_INPUT
+        raise
+    except (InputError, ParameterError):
+        refused = True
+        raise
     finally:
         logger.removeFilter(said)
         diagnostics = delegate.TakeUncoalescedDiagnostics()
         del delegate  # USD prints again from here on
-        if meta is not None and meta.get(REPORTED):
-            diagnostics = []
+        if refused or (meta is not None and meta.get(REPORTED)):
+            diagnostics = []  # bad input: its one error line is the whole answer
         seen = {_core(m).replace("@", "") for m in said.messages}
         for diagnostic in diagnostics:
             line = usd_warning_line(diagnostic.commentary)
