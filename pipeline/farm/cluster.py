@@ -76,7 +76,11 @@ def open_cluster(
         threads_per_worker=1,
         processes=True,
         host="127.0.0.1",
-        dashboard_address=None,
+        # no dashboard, and the scheduler's HTTP server (health, metrics) on a free port: with
+        # dashboard_address=None distributed still serves it on 8787, and warns "Port 8787 is
+        # already in use" on stderr when something else (a notebook's cluster) holds that port
+        dashboard_address=":0",
+        scheduler_kwargs={"dashboard": False},
         silence_logs=logging.ERROR,
         env={"PAVONINE_RENDER_THREADS": str(threads)},
     )
