@@ -59,7 +59,8 @@ def test_usd_warnings_become_one_log_line_each_unless_refused_or_reported(tmp_pa
     from pavonine.pipeline.errors import InputError
 
     stage = _missing_reference(tmp_path)
-    logger = logging.getLogger("pavonine.test_usd_diagnostics")
+    logger = logging.getLogger("test_usd_diagnostics")  # not under "pavonine": its own handler
+    logger.propagate = False
     records: list[str] = []
     handler = logging.Handler()
     handler.emit = lambda record: records.append(record.getMessage())
