@@ -368,6 +368,8 @@ BAD_RECORDS = [
     ({"baseline.spp": "abc"}, 'baseline.spp: must be a positive whole number, got "abc"'),
     ({"baseline.spp": 0}, "baseline.spp: must be a positive whole number, got 0"),
     ({"baseline.resolution": [32, 32]}, "baseline.resolution: 32x32 differs from mean.exr's 64x64"),
+    ({"format": 2}, "format: 2 is newer than this Pavonine reads (1); update Pavonine"),
+    ({"format": "1"}, 'format: must be a whole number >= 1, got "1"'),
 ]
 
 

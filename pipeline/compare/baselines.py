@@ -27,7 +27,12 @@ from pavonine.pipeline.compare.methods import (
     read_image,
     read_variance,
 )
-from pavonine.pipeline.compare.record import CheckSettings, read_record, recorded_settings
+from pavonine.pipeline.compare.record import (
+    FORMAT_VERSION,
+    CheckSettings,
+    read_record,
+    recorded_settings,
+)
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.groups import GROUP_ATTRIBUTE, content_group_id, group_marks, read_mark
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
@@ -41,7 +46,6 @@ MEAN_FILE = "mean.exr"
 VARIANCE_FILE = "variance.exr"
 INFO_FILE = "baseline.json"
 PREVIEW_FILE = "preview.png"
-FORMAT_VERSION = 1
 
 _VERSIONED = ("pavonine", "mitsuba", "drjit", "usd-core", "numpy", "opencolorio", "OpenImageIO")
 

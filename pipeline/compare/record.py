@@ -16,6 +16,9 @@ from pavonine.limits import check_seed
 from pavonine.pipeline.compare.methods import LoadedImage
 from pavonine.pipeline.errors import InputError
 
+#: The record's layout (``format``); a newer one is refused rather than misread.
+FORMAT_VERSION = 1
+
 
 @dataclass(frozen=True)
 class CheckSettings:
@@ -83,6 +86,14 @@ def read_record(path: Path, scene: str) -> dict[str, Any]:
         raise InputError(str(path), "not UTF-8 text") from None
     if not isinstance(info, dict):
         raise InputError(str(path), f"must be a JSON object, got {_shown(info)}")
+    version = info.get("format", FORMAT_VERSION)
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise InputError(f"{path}: format", f"must be a whole number >= 1, got {_shown(version)}")
+    if version > FORMAT_VERSION:
+        raise InputError(
+            f"{path}: format",
+            f"{version} is newer than this Pavonine reads ({FORMAT_VERSION}); update Pavonine",
+        )
     for key in ("baseline", "check", "flip_threshold"):
         if key not in info:
             raise InputError(f"{path}: {key}", f"missing; run 'pavonine baseline update {scene}'")
