@@ -256,15 +256,20 @@ JSON_CASES = [
 ]
 
 
-@pytest.mark.parametrize("path", JSON_CASES)
-def test_json_to_stdout_is_the_documented_report_and_nothing_else(
-    path, tmp_path, monkeypatch, request
-):
+def _example(path, tmp_path, monkeypatch, request) -> tuple[list[str], set[int]]:
+    """The example invocation of ``path`` (its arguments, run in ``tmp_path``) and its exit codes."""
     if path in (("bake",), ("package",), ("export",)):
         _EYE_ASSET[:] = [request.getfixturevalue("eye_asset")]
     make_args, exit_codes = EXAMPLES[path]
     monkeypatch.chdir(tmp_path)
-    args = make_args(tmp_path, monkeypatch)
+    return make_args(tmp_path, monkeypatch), exit_codes
+
+
+@pytest.mark.parametrize("path", JSON_CASES)
+def test_json_to_stdout_is_the_documented_report_and_nothing_else(
+    path, tmp_path, monkeypatch, request
+):
+    args, exit_codes = _example(path, tmp_path, monkeypatch, request)
     result = invoke(*path, *args, "--json", "-")
     assert result.exit_code in exit_codes, result.output
     report = json.loads(result.stdout)  # anything else on stdout would break this
@@ -284,11 +289,7 @@ def test_an_unwritable_json_report_stops_the_command_before_it_writes(
     path, tmp_path, monkeypatch, request
 ):
     """The report is written last: its path is checked first, or the outputs would be left."""
-    if path in (("bake",), ("package",), ("export",)):
-        _EYE_ASSET[:] = [request.getfixturevalue("eye_asset")]
-    make_args, _ = EXAMPLES[path]
-    monkeypatch.chdir(tmp_path)
-    args = make_args(tmp_path, monkeypatch)
+    args, _ = _example(path, tmp_path, monkeypatch, request)
     (tmp_path / "afile").write_text("")
     before = _files(tmp_path)
     result = invoke(*path, *args, "--json", str(tmp_path / "afile" / "report.json"))
