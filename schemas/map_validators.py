@@ -61,7 +61,7 @@ def _pixel_problems(inp, path: str, colour: int) -> list[tuple[str, str, object]
             WARN,
             "MapNotGrey",
             f"{path} has colour channels that differ (by up to {spread:.3f}); "
-            "Pavonine reads its first channel",
+            "Pavonine reads its Rec. 709 luma",
         )
     ]
 

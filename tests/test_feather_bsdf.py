@@ -278,3 +278,29 @@ def test_instance_table_length_does_not_enter_the_kernel():
         return max(history, key=lambda k: k.get("operation_count") or 0)["hash"]
 
     assert traced_hash(10) == traced_hash(300)
+
+
+def test_a_colour_map_is_read_as_its_rec709_luma_as_convert_reads_it(tmp_path):
+    """The renderer reads a map through Mitsuba's raw bitmap and ``eval_1``, which gives an RGB
+    image's luminance (Rec. 709 weights), not its first channel; ``convert`` and ``bake`` reduce
+    RGB maps to the same luma (pipeline/maps/io.py), so a hand-made colour map means the same
+    to all three."""
+    import OpenImageIO as oiio
+
+    from pavonine.pipeline.maps.io import grey_values
+    from pavonine.render.feather_bsdf import _bitmap
+
+    rgb = np.zeros((4, 4, 3), np.float32)
+    rgb[..., 0], rgb[..., 1], rgb[..., 2] = 0.9, 0.2, 0.5
+    path = tmp_path / "colour.exr"
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(4, 4, 3, "float"))
+    out.write_image(rgb)
+    out.close()
+    texture = mi.load_dict(_bitmap(str(path)))
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.uv = mi.Point2f(0.5, 0.5)
+    value = float(texture.eval_1(si)[0])
+    luma = float(grey_values(rgb.ravel(), oiio.ImageSpec(4, 4, 3, "float"))[0, 0])
+    assert value == pytest.approx(luma, abs=2e-4)
+    assert abs(value - 0.9) > 0.3  # not the first channel
