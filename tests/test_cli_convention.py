@@ -482,3 +482,21 @@ def test_farm_options_without_the_farm_extra_are_one_line_naming_it(tmp_path):
         assert len(lines) == 1 and lines[0].startswith(f"error: {option[0]}: "), result.stderr
         assert "needs the [farm] extra" in lines[0] and "pip install 'pavonine[farm]'" in lines[0]
         assert not list(tmp_path.iterdir())
+
+
+def test_the_log_handler_survives_a_closed_earlier_stderr(capsys):
+    """The handler writes to whatever ``sys.stderr`` is; the one it last wrote to may be closed
+    by now (pytest's fd capture of an earlier test, a tool's own redirection): that must not
+    raise 'I/O operation on closed file' (seen in CI, depending on test order)."""
+    import logging
+
+    from pavonine.pipeline.cli.options import _LevelFormatter, _StderrHandler
+
+    handler = _StderrHandler()
+    handler.setFormatter(_LevelFormatter())
+    gone = open(os.devnull, "wb", buffering=0)  # closed on purpose
+    gone.close()
+    handler.stream = gone
+    record = logging.LogRecord("pavonine", logging.WARNING, "", 0, "after the runner", (), None)
+    handler.emit(record)
+    assert "warning: after the runner" in capsys.readouterr().err

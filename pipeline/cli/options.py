@@ -194,7 +194,9 @@ class _StderrHandler(logging.StreamHandler):
     """Plain ``level: message`` lines on whatever ``sys.stderr`` is when a record is emitted."""
 
     def emit(self, record: logging.LogRecord) -> None:
-        self.setStream(sys.stderr)
+        # assigned, not setStream(): that flushes the previous stream, which a caller that ran a
+        # command in its own process (click's CliRunner) may have closed since
+        self.stream = sys.stderr
         super().emit(record)
 
 
