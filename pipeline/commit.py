@@ -409,9 +409,9 @@ def check_writable(path: str | os.PathLike) -> None:
     """Raise a one-line :class:`InputError` unless a file can be created at ``path``.
 
     Probes the output's folder with a temporary file, so that an unwritable output is found
-    before a long render or conversion rather than after it. While that folder does not exist yet, its
-    nearest existing ancestor (which :func:`atomic_path` would create the rest in) is only
-    inspected, never written to: nothing is written outside the output's folder.
+    before a long render or conversion rather than after it. Folders on the way that do not
+    exist yet are made for the probe (as :func:`atomic_path` would make them) and removed again;
+    nothing is written outside the output's folder.
     """
     target = Path(path)
     if target.is_dir():
@@ -426,10 +426,15 @@ def check_writable(path: str | os.PathLike) -> None:
             raise InputError(str(path), f"cannot write here ({os.strerror(errno.EROFS)})")
         if not os.access(folder, os.W_OK | os.X_OK):
             raise InputError(str(path), f"cannot write here ({os.strerror(errno.EACCES)})")
-        return
     try:
-        fd, probe = tempfile.mkstemp(prefix=temporary_prefix("probe", "tmp"), dir=folder)
+        created = make_folder(target.parent)
+    except InputError as exc:
+        raise InputError(str(path), f"cannot write here: {exc.where}: {exc.message}") from None
+    try:
+        fd, probe = tempfile.mkstemp(prefix=temporary_prefix("probe", "tmp"), dir=target.parent)
+        os.close(fd)
+        os.unlink(probe)
     except OSError as exc:
         raise InputError(str(path), f"cannot write here ({exc.strerror or exc})") from None
-    os.close(fd)
-    os.unlink(probe)
+    finally:
+        remove_if_empty(created)

@@ -284,17 +284,23 @@ def _files(folder: Path) -> dict[str, tuple[int, int]]:
     }
 
 
+@pytest.mark.parametrize("report", ["under-a-file", "uncreatable-folder"])
 @pytest.mark.parametrize("path", JSON_CASES)
 def test_an_unwritable_json_report_stops_the_command_before_it_writes(
-    path, tmp_path, monkeypatch, request
+    path, report, tmp_path, monkeypatch, request
 ):
-    """The report is written last: its path is checked first, or the outputs would be left."""
+    """The report is written last: its path is checked first, or the outputs would be left.
+    Checked: a folder that is a file, and a folder that cannot be made (under /proc)."""
+    if report == "uncreatable-folder" and not os.path.isdir("/proc/self"):
+        pytest.skip("needs Linux's /proc")
     args, _ = _example(path, tmp_path, monkeypatch, request)
     (tmp_path / "afile").write_text("")
     before = _files(tmp_path)
-    result = invoke(*path, *args, "--json", str(tmp_path / "afile" / "report.json"))
+    where = "afile" if report == "under-a-file" else "/proc/pavonine-nowhere"
+    target = tmp_path / "afile" / "r.json" if report == "under-a-file" else Path(where) / "r.json"
+    result = invoke(*path, *args, "--json", str(target))
     assert result.exit_code == 2, result.output
-    assert result.stderr.count("\n") == 1 and "afile" in result.stderr, result.stderr
+    assert result.stderr.count("\n") == 1 and where in result.stderr, result.stderr
     assert _files(tmp_path) == before
 
 

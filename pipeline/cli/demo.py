@@ -153,8 +153,9 @@ def demo(
 ) -> None:
     """Paint the eye feather's maps, convert them to a USD asset and render it lit by the sun.
 
-    Writes DIR/maps/eye/ (six maps and a contact sheet), DIR/assets/eye_feather/ (the USD
-    component asset), DIR/eye_feather_sun.usda (the scene) and DIR/eye_feather_sun.{exr,png}.
+    Writes DIR/maps/eye/ (six maps and a contact sheet), DIR/eye_feather.toml (the recipe),
+    DIR/assets/eye_feather/ (the USD component asset), DIR/eye_feather_sun.usda (the scene) and
+    DIR/eye_feather_sun.{exr,png}.
     Works from an installed package: the recipe and scene are package data. When Mitsuba cannot
     load (a missing system library: Debian's libatomic1), it makes everything but the render,
     says why in one warning, and exits 0.
