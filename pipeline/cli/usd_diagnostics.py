@@ -7,8 +7,8 @@ same problem. While a command runs, a ``UsdUtils.CoalescingDiagnosticDelegate`` 
 instead; when the command ends each distinct one becomes ``warning: <what USD said>``, unless
 the command already warned about it in its own words, or reports USD's diagnostics itself
 (``validate``: :func:`reported_by_command`), or stops for bad input (its one error line is the
-answer). USD errors are unaffected: they reach Python as
-exceptions, which commands turn into one-line errors.
+answer). USD errors are unaffected: they reach Python as exceptions, which commands turn into
+one-line errors.
 """
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ def usd_warnings_to_log(
         for diagnostic in diagnostics:
             line = usd_warning_line(diagnostic.commentary)
             core = _core(line)
-            if not core or any(core in m or m.endswith(core) for m in seen):
+            if not core or any(core in m for m in seen):
                 continue
             missing = _missing_assets(line)
             if missing and any(path in m for path in missing for m in said.messages):
