@@ -24,7 +24,7 @@ import contextlib
 import errno
 import os
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -55,11 +55,22 @@ SEED_RANGE = (0, 2**32 - 1)
 _override: int | None = None
 
 
-def aspects_differ(size: tuple[int, int], reference: tuple[int, int]) -> bool:
-    """Two ``(width, height)`` sizes whose width:height differ by more than
-    :data:`ASPECT_TOLERANCE` (a fraction): such maps cannot span the same feather."""
-    (w, h), (ref_w, ref_h) = size, reference
-    return abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE
+def odd_aspects(
+    sizes: Mapping[str, tuple[int, int]], reference: str = "alpha"
+) -> tuple[str | None, list[str]]:
+    """The reference map (``reference`` when ``sizes`` has it, else the first) and the maps
+    whose width:height differs from its by more than :data:`ASPECT_TOLERANCE` (a fraction):
+    such maps cannot span the same feather. ``sizes``: ``(width, height)`` by map name."""
+    if reference not in sizes:
+        reference = next(iter(sizes), None)
+    if reference is None:
+        return None, []
+    ref_w, ref_h = sizes[reference]
+    return reference, [
+        name
+        for name, (w, h) in sizes.items()
+        if abs((w / h) / (ref_w / ref_h) - 1.0) > ASPECT_TOLERANCE
+    ]
 
 
 def set_max_pixels(count: int | None) -> None:
@@ -246,11 +257,11 @@ def open_image(
             image.close()
 
 
-def image_error(text: str) -> str:
+def image_error(text: str, empty: str = "no pixels") -> str:
     """OpenImageIO's error text as one reason: its first line (the later ones repeat it through
-    the format library's words), or ``no pixels`` when it said nothing."""
+    the format library's words), or ``empty`` when it said nothing."""
     lines = [line.strip() for line in text.splitlines() if line.strip()]
-    return lines[0] if lines else "no pixels"
+    return lines[0] if lines else empty
 
 
 def check_image(path: str | os.PathLike, where: str | None = None) -> tuple[int, int]:

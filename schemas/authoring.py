@@ -215,8 +215,8 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
         others = ", ".join(f"{n}={k}" for n, k in lengths.items() if n != odd)
         raise ParameterError(
             odd,
-            f"has {lengths[odd]} class{'es' * (lengths[odd] != 1)}; the six per-class arrays must be equally long (>= 1): "
-            f"{others}",
+            f"has {lengths[odd]} class{'es' * (lengths[odd] != 1)}; the six per-class arrays "
+            f"must be equally long (>= 1): {others}",
         )
     scalars: dict[str, object] = {}
     for field, (name, vtype) in {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.items():

@@ -40,12 +40,13 @@ def _pixel_problems(inp, path: str, colour: int) -> list[tuple[str, str, object]
     non-finite or out of [0, 1] values are errors; colour channels that differ warn."""
     import numpy as np
 
+    from pavonine.limits import image_error
     from pavonine.pipeline.maps.io import grey_values, value_problem
 
     spec = inp.spec()
     pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
     if pixels is None:
-        error = (inp.geterror() or "no pixels").strip().splitlines()[0]
+        error = image_error(inp.geterror())
         return [(ERROR, "MapNotAnImage", f"OpenImageIO cannot read pixels of {path}: {error}")]
     problem = value_problem(grey_values(pixels, spec))
     if problem:

@@ -229,14 +229,13 @@ def list_baselines(scenes_dir: Path, baselines_dir: Path, json_target: str | Non
         row = {"scene": scene_name(stage), "stage": relative_to_repo(stage), "baseline": None}
         if (directory / MEAN_FILE).is_file():
             made = load_baseline(directory)
-            info = made.info
             row.update(
                 baseline=relative_to_repo(directory),
                 spp=made.settings.spp,
                 check_spp=made.check_settings.spp,
                 resolution=list(made.mean.size),
-                created=info.get("created"),
-                inputs_changed=info.get("stage_sha256") not in (None, stage_sha256(stage)),
+                created=made.info.get("created"),
+                inputs_changed=made.recorded_sha256 not in (None, stage_sha256(stage)),
             )
         rows.append(row)
     if all(row["baseline"] is None for row in rows):

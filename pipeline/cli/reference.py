@@ -19,8 +19,9 @@ Generated from the commands' own help by `python -m pavonine.pipeline.cli.refere
 
 ## Conventions
 
-Every command follows the same rules (`pipeline/cli/options.py`, imported as `pavonine.pipeline.cli.options`, implements them;
-`tests/test_cli_convention.py` walks every registered command and checks them):
+Every command follows the same rules (`pipeline/cli/options.py`, imported as
+`pavonine.pipeline.cli.options`, implements them; `tests/test_cli_convention.py` walks every
+registered command and checks them):
 
 * **`-o/--output PATH`** is where the command writes: a file or a folder, as its help says.
   Optional extra outputs have their own names (`--png`, `--report`, `--json`, `--junit`).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import functools
 import math
 import sys
 from contextlib import ExitStack
@@ -119,6 +120,35 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
     return params, label
 
 
+#: The option behind each argument of the optics functions that a ParameterError names.
+OPTION_OF_FIELD = {
+    "ocellar_class": "--class",
+    "preset": "--preset",
+    "gradation": "--gradation",
+    "incidence": "--incidence",
+    "observe": "--observe",
+    "azimuth": "--azimuth",
+    "structural_share": "--structural-share",
+    "interference": "--interference",
+}
+
+
+def _errors_name_options(command):
+    """``command`` with the model's :class:`ParameterError` (naming a function argument, such as
+    ``ocellar_class``) turned into an :class:`InputError` naming the option the user typed."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        from pavonine.materials.parameters import ParameterError
+
+        try:
+            return command(*args, **kwargs)
+        except ParameterError as exc:
+            raise InputError(OPTION_OF_FIELD.get(exc.field, exc.field), exc.reason) from None
+
+    return wrapper
+
+
 @click.command()
 @click.option(
     "--preset",
@@ -190,6 +220,7 @@ def resolve_parameters(preset_name, ocellar_class, interval, radius, layers, int
 @json_option(JSON_SCHEMA)
 @display_options
 @one_line_errors
+@_errors_name_options
 def spectra(
     preset_name,
     ocellar_class,
@@ -210,35 +241,6 @@ def spectra(
 
     Colours are display-referred through the display transform (--ocio-config, --view, …).
     """
-    from pavonine.materials.parameters import ParameterError
-
-    try:
-        _spectra(
-            preset_name, ocellar_class, gradation, interval, radius, layers, interference,
-            incidence, observe, azimuth, structural_share, output, json_target, display,
-        )  # fmt: skip
-    except ParameterError as exc:  # the model names its arguments; the user typed options
-        raise InputError(OPTION_OF_FIELD.get(exc.field, exc.field), exc.reason) from None
-
-
-#: The option behind each argument of the optics functions that a ParameterError names.
-OPTION_OF_FIELD = {
-    "ocellar_class": "--class",
-    "preset": "--preset",
-    "gradation": "--gradation",
-    "incidence": "--incidence",
-    "observe": "--observe",
-    "azimuth": "--azimuth",
-    "structural_share": "--structural-share",
-    "interference": "--interference",
-}
-
-
-def _spectra(
-    preset_name, ocellar_class, gradation, interval, radius, layers, interference, incidence,
-    observe, azimuth, structural_share, output, json_target, display,
-) -> None:  # fmt: skip
-    """The body of :func:`spectra`."""
     from pavonine.materials import optics
 
     params, label = resolve_parameters(

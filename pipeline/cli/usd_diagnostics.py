@@ -103,7 +103,7 @@ def usd_warnings_to_log(
         del delegate  # USD prints again from here on
         if refused or (meta is not None and meta.get(REPORTED)):
             diagnostics = []  # bad input: its one error line is the whole answer
-        seen = {_core(m).replace("@", "") for m in said.messages}
+        seen = {_core(m) for m in said.messages}
         for diagnostic in diagnostics:
             line = usd_warning_line(diagnostic.commentary)
             core = _core(line)

@@ -18,7 +18,7 @@ import numpy as np
 import OpenImageIO as oiio
 from scipy import ndimage
 
-from pavonine.limits import aspects_differ, image_error, open_image
+from pavonine.limits import image_error, odd_aspects, open_image
 from pavonine.pipeline.errors import InputError
 
 #: Colour space written into every map (data, not colour).
@@ -115,19 +115,15 @@ def check_aspects(
     """Raise :class:`InputError` at ``where[name]`` (file and field) for the first map whose
     width:height differs from the ``reference`` map's (the first map when that one is absent):
     the maps all span the same feather."""
-    if reference not in maps:
-        reference = next(iter(maps), reference)
-    if reference not in maps:
-        return
-    ref_h, ref_w = maps[reference].shape
-    for name, values in maps.items():
-        h, w = values.shape
-        if aspects_differ((w, h), (ref_w, ref_h)):
-            raise InputError(
-                where[name],
-                f"aspect {w}x{h} differs from the {reference} map's {ref_w}x{ref_h}; "
-                "all the maps must have the same width:height",
-            )
+    sizes = {name: (values.shape[1], values.shape[0]) for name, values in maps.items()}
+    reference, odd = odd_aspects(sizes, reference)
+    if odd:
+        (w, h), (ref_w, ref_h) = sizes[odd[0]], sizes[reference]
+        raise InputError(
+            where[odd[0]],
+            f"aspect {w}x{h} differs from the {reference} map's {ref_w}x{ref_h}; "
+            "all the maps must have the same width:height",
+        )
 
 
 def grey_values(pixels: np.ndarray, spec: oiio.ImageSpec) -> np.ndarray:

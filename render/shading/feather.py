@@ -98,7 +98,7 @@ def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) ->
     """Warn about each map whose width:height differs from the alpha map's (else the first
     map's): every map spans the feather's uv square, so such a map is stretched over it
     (``convert`` refuses it). Only headers are read."""
-    from pavonine.limits import aspects_differ, check_image
+    from pavonine.limits import check_image, odd_aspects
     from pavonine.schemas.authoring import MAP_ATTRS
 
     sizes: dict[str, tuple[int, int]] = {}
@@ -109,17 +109,14 @@ def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) ->
             continue  # not an image, or beyond the pixel budget: the bitmap's load says so
         if min(size) > 0:
             sizes[name] = size
-    if not sizes:
-        return
-    ref = "alpha" if "alpha" in sizes else next(iter(sizes))
-    ref_w, ref_h = sizes[ref]
-    for name, (w, h) in sizes.items():
-        if aspects_differ((w, h), (ref_w, ref_h)):
-            diag.warn(
-                path,
-                f"{MAP_ATTRS[name]} {maps[name]!r} is {w}x{h}, not the width:height of the "
-                f"{ref} map's {ref_w}x{ref_h}; it is stretched over the feather",
-            )
+    ref, odd = odd_aspects(sizes)
+    for name in odd:
+        (w, h), (ref_w, ref_h) = sizes[name], sizes[ref]
+        diag.warn(
+            path,
+            f"{MAP_ATTRS[name]} {maps[name]!r} is {w}x{h}, not the width:height of the "
+            f"{ref} map's {ref_w}x{ref_h}; it is stretched over the feather",
+        )
 
 
 def _check_spectral(path: str) -> None:

@@ -222,7 +222,7 @@ def read_texels(resolved: str, space: str = "auto") -> tuple[np.ndarray, str | N
         pixels = None if buf.has_error else buf.get_pixels(oiio.FLOAT)
     if pixels is None or buf.has_error:
         raise TextureError(
-            f"cannot read texture {resolved!r}: {image_error(buf.geterror()) or 'unknown format'}"
+            f"cannot read texture {resolved!r}: {image_error(buf.geterror(), 'unknown format')}"
         )
     spec = buf.spec()
     values = np.asarray(pixels, dtype=np.float64).reshape(spec.height, spec.width, -1)
