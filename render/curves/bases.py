@@ -51,9 +51,7 @@ class CurveTopology:
 
     def varying_counts(self) -> np.ndarray:
         """(C,) how many ``varying`` values each curve takes."""
-        return np.array(
-            [varying_count(int(c), self.kind, self.basis, self.wrap) for c in self.counts]
-        )
+        return varying_count(self.counts, self.kind, self.basis, self.wrap)
 
 
 def read_curves(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> CurveTopology | None:
@@ -102,16 +100,16 @@ def read_widths(
     return widths, interpolation
 
 
-def varying_count(count: int, kind: str, basis: str, wrap: str) -> int:
-    """Segments + 1 (nonperiodic, pinned) or segments (periodic): UsdGeomBasisCurves' varying table."""
-    if kind == "linear":
-        return count
-    if wrap == "pinned" and basis != "bezier":
-        return count  # (count − 2) + 1 segments, + 1
+def varying_count(count: np.ndarray, kind: str, basis: str, wrap: str) -> np.ndarray:
+    """Per curve of ``count`` points: segments + 1 (nonperiodic, pinned) or segments (periodic),
+    UsdGeomBasisCurves' varying table."""
+    count = np.asarray(count, dtype=np.int64)
+    if kind == "linear" or (wrap == "pinned" and basis != "bezier"):
+        return count  # pinned: (count − 2) + 1 segments, + 1
     vstep = 3 if basis == "bezier" else 1
     if wrap == "periodic":
         return count // vstep
-    return (count - 4) // vstep + 2 if count >= 4 else 1
+    return np.where(count >= 4, (count - 4) // vstep + 2, 1)
 
 
 def needed_values(topology: CurveTopology, interpolation: str) -> int:
@@ -125,49 +123,64 @@ def needed_values(topology: CurveTopology, interpolation: str) -> int:
     }[interpolation]
 
 
-def to_bspline(p: np.ndarray, kind: str, basis: str, wrap: str) -> list[np.ndarray] | None:
-    """One USD curve (n × k: position and any per-point data) as uniform B-spline (or, for
-    ``linear``, polyline) control points: one array per run of joined segments."""
+def bspline_runs(p: np.ndarray, kind: str, basis: str, wrap: str) -> np.ndarray | None:
+    """Curves of n points (``p``: (..., n, k), position and any per-point data) as runs of joined
+    uniform B-spline (cubic) or polyline (linear) control points: (..., R, L, k). ``None`` when
+    the curves have too few points for their basis."""
+    n = p.shape[-2]
+
+    def join(*parts):
+        return np.concatenate(parts, axis=-2)
+
+    def phantoms(q):  # 2P₀ − P₁ and 2Pₙ − Pₙ₋₁: the curve starts and ends on its end points
+        return join(2 * q[..., :1, :] - q[..., 1:2, :], q, 2 * q[..., -1:, :] - q[..., -2:-1, :])
+
     if kind == "linear":
-        if len(p) < 2:
+        if n < 2:
             return None
-        return [np.vstack([p, p[:1]]) if wrap == "periodic" else p]
+        return (join(p, p[..., :1, :]) if wrap == "periodic" else p)[..., None, :, :]
     if basis == "bspline":
         if wrap == "periodic":
-            p = np.vstack([p, p[:3]])
-        elif wrap == "pinned":
-            p = np.vstack([2 * p[:1] - p[1:2], p, 2 * p[-1:] - p[-2:-1]])
-        return [p] if len(p) >= 4 else None
+            p = join(p, p[..., :3, :])
+        elif wrap == "pinned" and n >= 2:
+            p = phantoms(p)
+        return p[..., None, :, :] if p.shape[-2] >= 4 else None
     if basis == "catmullRom":
         if wrap == "periodic":
-            p = np.vstack([p[-1:], p, p[:2]])
-        elif wrap == "pinned":
-            p = np.vstack([2 * p[:1] - p[1:2], p, 2 * p[-1:] - p[-2:-1]])
-        if len(p) < 4:
+            p = join(p[..., -1:, :], p, p[..., :2, :])
+        elif wrap == "pinned" and n >= 2:
+            p = phantoms(p)
+        if p.shape[-2] < 4:
             return None
-        segments = []
-        for i in range(1, len(p) - 2):
-            a, b, c, d = p[i - 1], p[i], p[i + 1], p[i + 2]
-            segments.append(BEZIER_TO_BSPLINE @ np.stack([b, b + (c - a) / 6, c - (d - b) / 6, c]))
-        return segments
+        a, b, c, d = p[..., :-3, :], p[..., 1:-2, :], p[..., 2:-1, :], p[..., 3:, :]
+        return BEZIER_TO_BSPLINE @ np.stack([b, b + (c - a) / 6, c - (d - b) / 6, c], axis=-2)
     # bezier, vstep 3
     if wrap == "periodic":
-        p = np.vstack([p, p[:1]])
-    count = (len(p) - 1) // 3
+        p = join(p, p[..., :1, :])
+    count = (p.shape[-2] - 1) // 3
     if count < 1:
         return None
-    return [BEZIER_TO_BSPLINE @ p[3 * i : 3 * i + 4] for i in range(count)]
+    return BEZIER_TO_BSPLINE @ p[..., 3 * np.arange(count)[:, None] + np.arange(4), :]
+
+
+def to_bspline(p: np.ndarray, kind: str, basis: str, wrap: str) -> list[np.ndarray] | None:
+    """One USD curve (n × k) as its runs of B-spline (or polyline) control points, one array each
+    (:func:`bspline_runs`)."""
+    runs = bspline_runs(p, kind, basis, wrap)
+    return None if runs is None else list(runs)
 
 
 def segment_windows(p: np.ndarray, kind: str, basis: str, wrap: str) -> np.ndarray | None:
-    """(S, 4, k) uniform B-spline control points of each segment (cubic), (S, 2, k) (linear),
-    in the order of the curve; ``None`` when the curve has too few points for its basis."""
-    runs = to_bspline(p, kind, basis, wrap)
+    """(..., S, 4, k) uniform B-spline control points of each segment of curves ``p``
+    (..., n, k) (cubic), (..., S, 2, k) (linear), in the order of the curve; ``None`` when the
+    curves have too few points for their basis."""
+    runs = bspline_runs(p, kind, basis, wrap)
     if runs is None:
         return None
     order = 2 if kind == "linear" else 4
-    windows = [run[i : i + order] for run in runs for i in range(len(run) - order + 1)]
-    return np.stack(windows) if windows else None
+    windows = np.lib.stride_tricks.sliding_window_view(runs, order, axis=-2)  # (..., R, W, k, o)
+    windows = np.swapaxes(windows, -1, -2)
+    return windows.reshape(*runs.shape[:-3], -1, order, runs.shape[-1])
 
 
 def basis_weights(u: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:

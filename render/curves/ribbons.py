@@ -20,6 +20,8 @@ feather BSDF's barbule frame starts from. A ribbon has no inside: it is shaded o
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from pxr import Usd, UsdGeom
 
@@ -162,62 +164,67 @@ def _fits(
 
 
 def _sample(topology: CurveTopology, data: dict[str, Primvar], steps: int):
-    """Every segment evaluated at its sample parameters.
+    """Every segment evaluated at its sample parameters, curves of one length at a time.
 
     Returns ``(values, tangents, quads, quad_curve)``: ``values`` maps ``"P"`` and each name of
-    ``data`` with per-sample interpolation to (N, k) arrays, ``tangents`` (N, 3) are dP/du, the
-    quads (Q, 4) index the ribbon's vertices (2 per sample: the −S edge, then the +S edge), and
-    ``quad_curve`` (Q,) is each quad's curve. ``None`` when no curve has enough points.
+    ``data`` to per-sample (N, k) arrays, ``tangents`` (N, 3) are dP/du, the quads (Q, 4) index
+    the ribbon's vertices (2 per sample: the −S edge, then the +S edge), and ``quad_curve`` (Q,)
+    is each quad's curve. ``None`` when no curve has enough points.
     """
     kind = topology.kind
     per_point = [n for n, pv in data.items() if pv.interpolation == "vertex"]
     columns = [topology.points] + [data[n].values[: len(topology.points)] for n in per_point]
-    edges = np.cumsum([0, 3] + [c.shape[1] for c in columns[1:]])
+    edges = np.cumsum([0] + [c.shape[1] for c in columns])
     stacked = np.concatenate(columns, axis=1)
     u = np.linspace(0.0, 1.0, steps + 1) if kind == "cubic" else np.array([0.0, 1.0])
     weights, derivative = basis_weights(u, kind)
     periodic = topology.wrap == "periodic"
+    varying = topology.varying_counts()
+    varying_start = np.concatenate([[0], np.cumsum(varying)[:-1]])
     out: dict[str, list[np.ndarray]] = {n: [] for n in ["P", *data]}
     tangents, quad_curve, quads = [], [], []
-    varying_start, sample_count = 0, 0
-    for curve, (start, count, m) in enumerate(
-        zip(topology.starts, topology.counts, topology.varying_counts(), strict=True)
-    ):
-        windows = segment_windows(
-            stacked[start : start + count], kind, topology.basis, topology.wrap
-        )
+    sample_count = 0
+    for count in np.unique(topology.counts):
+        curves = np.nonzero(topology.counts == count)[0]
+        index = topology.starts[curves][:, None] + np.arange(count)
+        windows = segment_windows(stacked[index], kind, topology.basis, topology.wrap)
         if windows is None:
-            varying_start += m
             continue
-        s = len(windows)
-        at = np.einsum("uo,sok->suk", weights, windows).reshape(s * len(u), -1)
-        tangents.append(
-            np.einsum("uo,sok->suk", derivative, windows[:, :, :3]).reshape(s * len(u), 3)
-        )
-        out["P"].append(at[:, :3])
+        g, s = len(curves), windows.shape[1]
+        n = g * s * len(u)  # samples: curve-major, then segment, then u
+        flat = functools.partial(_flat, n)
+
+        at = np.einsum("uo,gsok->gsuk", weights, windows)
+        tangents.append(flat(np.einsum("uo,gsok->gsuk", derivative, windows[..., :3])))
+        out["P"].append(flat(at[..., :3]))
         for i, name in enumerate(per_point, start=1):
-            out[name].append(at[:, edges[i] : edges[i + 1]])
-        first = np.arange(s)
-        second = (first + 1) % m if periodic else np.minimum(first + 1, m - 1)
-        lerp = np.repeat(u[None, :, None], s, 0)
+            out[name].append(flat(at[..., edges[i] : edges[i + 1]]))
+        m = int(varying[curves[0]])
+        first = np.minimum(np.arange(s), m - 1)
+        second = (np.arange(s) + 1) % m if periodic else np.minimum(np.arange(s) + 1, m - 1)
+        lerp = u[None, None, :, None]
         for name, primvar in data.items():
             if primvar.interpolation in ("varying", "faceVarying"):
-                v = primvar.values[varying_start : varying_start + m]
-                a, b = v[np.minimum(first, m - 1)][:, None], v[second][:, None]
-                out[name].append((a + (b - a) * lerp).reshape(s * len(u), -1))
+                base = varying_start[curves][:, None]
+                a = primvar.values[base + first][:, :, None]
+                b = primvar.values[base + second][:, :, None]
+                out[name].append(flat(a + (b - a) * lerp))
             elif primvar.interpolation in ("uniform", "constant"):
-                row = primvar.values[curve if primvar.interpolation == "uniform" else 0]
-                out[name].append(np.repeat(row[None], s * len(u), 0))
-        varying_start += m
-        base = sample_count + (np.arange(s)[:, None] * len(u) + np.arange(len(u) - 1)[None])
-        base = base.ravel()
+                rows = curves if primvar.interpolation == "uniform" else np.zeros(g, int)
+                out[name].append(np.repeat(primvar.values[rows], s * len(u), axis=0))
+        segment = sample_count + np.arange(g * s)[:, None] * len(u)
+        base = (segment + np.arange(len(u) - 1)[None]).ravel()
         quads.append(np.stack([2 * base, 2 * base + 1, 2 * base + 3, 2 * base + 2], 1))
-        quad_curve.append(np.full(len(base), curve))
-        sample_count += s * len(u)
+        quad_curve.append(np.repeat(curves, s * (len(u) - 1)))
+        sample_count += n
     if not quads:
         return None
     values = {n: np.concatenate(v) for n, v in out.items() if v}
     return values, np.concatenate(tangents), np.concatenate(quads), np.concatenate(quad_curve)
+
+
+def _flat(n: int, a: np.ndarray) -> np.ndarray:
+    return a.reshape(n, -1)
 
 
 def _frame(tangents: np.ndarray, normals: np.ndarray):
