@@ -220,19 +220,12 @@ def de(a, b) -> float:
 def test_feather_on_a_ribbon_matches_the_sheet_with_the_same_inputs(tmp_path):
     """Top left a sheet quad reading the maps, top right a ribbon carrying the same values as
     vertex primvars, bottom right a ribbon without them (neutral inputs, warned)."""
-    from pxr import Sdf, UsdGeom, UsdShade
+    from pxr import UsdShade
+    from render_helpers import feather_sheet
 
     stage, material = feather_scene(tmp_path / "feather.usda", tmp_path)
-    sheet = UsdGeom.Mesh.Define(stage, "/Sheet")
-    sheet.CreatePointsAttr([(-1.25, 0.25, 0), (-0.25, 0.25, 0), (-0.25, 1.25, 0), (-1.25, 1.25, 0)])
-    sheet.CreateFaceVertexCountsAttr([4])
-    sheet.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    sheet.CreateNormalsAttr([(0, 0, 1)] * 4)
-    sheet.SetNormalsInterpolation("vertex")
-    sheet.CreateSubdivisionSchemeAttr("none")
-    UsdGeom.PrimvarsAPI(sheet).CreatePrimvar(
-        "pavonine_featherUV", Sdf.ValueTypeNames.TexCoord2fArray, "vertex"
-    ).Set([(0, 0), (1, 0), (1, 1), (0, 1)])  # u along +X: the barb direction
+    corners = [(-1.25, 0.25, 0), (-0.25, 0.25, 0), (-0.25, 1.25, 0), (-1.25, 1.25, 0)]
+    sheet = feather_sheet(stage, "/Sheet", corners)  # u along +X: the barb direction
     UsdShade.MaterialBindingAPI.Apply(sheet.GetPrim()).Bind(material)
     barb(stage, material, "/Ribbon", 0.25, 0.75)
     barb(stage, material, "/Bare", 0.25, -0.75, primvars=False)
