@@ -20,7 +20,8 @@ FRAME = 3.0  # the orthographic camera sees [-1.5, 1.5]² of the z = 0 plane
 PIXEL = FRAME / SIZE
 
 #: A foreign stage written by hand (no Pavonine schema): a catmullRom ribbon with varying
-#: normals and vertex displayColor (red to blue), and a linear tube, each turned about its own
+#: normals and vertex displayColor (red to blue), a linear tube, and a bspline tube with vertex
+#: displayColor (tessellated: Mitsuba's curves carry no primvars), each turned about its own
 #: axis (X) by {turn} degrees.
 FOREIGN = """#usda 1.0
 (
@@ -85,6 +86,28 @@ def Xform "TubeTurn"
         )
     }}
 }}
+
+def Xform "ColouredTubeTurn"
+{{
+    double3 xformOp:translate = (0, -1.2, 0)
+    float xformOp:rotateX = {turn}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+
+    def BasisCurves "ColouredTube"
+    {{
+        uniform token type = "cubic"
+        uniform token basis = "bspline"
+        uniform token wrap = "pinned"
+        int[] curveVertexCounts = [4]
+        point3f[] points = [(-1.2, 0, 0), (-0.4, 0, 0), (0.4, 0, 0), (1.2, 0, 0)]
+        float[] widths = [0.2, 0.2, 0.2, 0.2] (
+            interpolation = "vertex"
+        )
+        color3f[] primvars:displayColor = [(1, 0, 0), (1, 0, 0), (0, 0, 1), (0, 0, 1)] (
+            interpolation = "vertex"
+        )
+    }}
+}}
 """
 
 
@@ -93,10 +116,10 @@ def render(path, spp=4):
     return result.rgb, result.warnings
 
 
-def band_widths(lit: np.ndarray, y_centre: float, columns: slice) -> np.ndarray:
-    """Lit pixels per column within ±0.45 scene units of ``y_centre`` (image rows), in units."""
+def band_widths(lit: np.ndarray, y_centre: float, columns: slice, band=0.45) -> np.ndarray:
+    """Lit pixels per column within ±``band`` scene units of ``y_centre`` (image rows), in units."""
     row = round(SIZE / 2 - y_centre / PIXEL)
-    half = round(0.45 / PIXEL)
+    half = round(band / PIXEL)
     return lit[row - half : row + half, columns].sum(axis=0) * PIXEL
 
 
@@ -118,12 +141,17 @@ def test_foreign_ribbon_is_flat_faces_its_normals_and_carries_its_colours(tmp_pa
     tube = [band_widths(image, -0.6, along) for image in (face_on, edge_on)]
     assert tube[0] == pytest.approx(0.4, abs=1.5 * PIXEL)
     assert tube[1] == pytest.approx(0.4, abs=1.5 * PIXEL)
-    # vertex displayColor reaches the ribbon: red at its start, blue at its end
-    row = round(SIZE / 2 - 0.6 / PIXEL)
-    start = images[0][row - 3 : row + 3, round(SIZE / 2 - 1.1 / PIXEL)].mean(axis=0)
-    end = images[0][row - 3 : row + 3, round(SIZE / 2 + 1.1 / PIXEL)].mean(axis=0)
-    assert start[0] > 0.5 and start[0] > 10 * max(start[1], start[2])
-    assert end[2] > 0.5 and end[2] > 10 * max(end[0], end[1])
+    coloured = [band_widths(image, -1.2, along, band=0.25) for image in (face_on, edge_on)]
+    assert coloured[0] == pytest.approx(0.2, abs=1.5 * PIXEL)
+    assert coloured[1] == pytest.approx(0.2, abs=1.5 * PIXEL)
+    # vertex displayColor reaches the ribbon and the tessellated tube: red at the start, blue at
+    # the end
+    for y, rows in ((0.6, 3), (-1.2, 1)):
+        row = round(SIZE / 2 - y / PIXEL)
+        start = images[0][row - rows : row + rows, round(SIZE / 2 - 1.1 / PIXEL)].mean(axis=0)
+        end = images[0][row - rows : row + rows, round(SIZE / 2 + 1.1 / PIXEL)].mean(axis=0)
+        assert start[0] > 0.4 and start[0] > 10 * max(start[1], start[2])
+        assert end[2] > 0.4 and end[2] > 10 * max(end[0], end[1])
 
 
 # -- the feather BSDF on a ribbon -----------------------------------------------------------------
