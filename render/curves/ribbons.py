@@ -24,9 +24,9 @@ from pxr import Usd, UsdGeom
 
 from pavonine.render import attributes
 from pavonine.render.curves.bases import CurveTopology, read_curves
-from pavonine.render.curves.sampling import STEPS, carried_primvars, fits, sample_curves
+from pavonine.render.curves.sampling import STEPS, fits, sample_curves, strip_surface
 from pavonine.render.diagnostics import Diagnostics
-from pavonine.render.mesh import Surface, make_topology
+from pavonine.render.mesh import Surface
 from pavonine.render.primvars import Primvar, read_primvar
 
 _NORMALS = "normals"
@@ -66,17 +66,7 @@ def ribbon_surface(
     points = np.stack([values["P"] - side * half, values["P"] + side * half], 1).reshape(-1, 3)
     a, b = samples.pairs[:, 0], samples.pairs[:, 1]
     quads = np.stack([2 * a, 2 * a + 1, 2 * b + 1, 2 * b], axis=1)
-    counts = np.full(len(quads), 4, dtype=np.int64)
-    surface_topology = make_topology(points, counts, quads.ravel(), False, topology.where, diag)
-    if surface_topology is None:
-        return None
-    return Surface(
-        prim,
-        surface_topology,
-        normals=Primvar(np.repeat(normal, 2, 0), "vertex", "Normal"),
-        primvars=carried_primvars(samples, per_sample=2, per_pair=1),
-        double_sided=True,
-    )
+    return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag)
 
 
 def _normals(

@@ -25,6 +25,7 @@ from pavonine.render.curves.bases import (
     segment_windows,
 )
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.mesh import Surface, make_topology
 from pavonine.render.primvars import Primvar, read_primvars
 
 STEPS = 4  # spans per cubic segment
@@ -115,6 +116,33 @@ def carried_primvars(samples: CurveSamples, per_sample: int, per_pair: int) -> d
         tangents = np.repeat(samples.unit_tangents(), per_sample, axis=0)
         out[BARB_TANGENT] = Primvar(tangents, "vertex", "Vector")
     return out
+
+
+def strip_surface(
+    prim: Usd.Prim,
+    samples: CurveSamples,
+    points: np.ndarray,
+    quads: np.ndarray,
+    normals: np.ndarray,
+    diag: Diagnostics,
+) -> Surface | None:
+    """The mesh built on ``samples``: ``points`` (the same number per sample, in sample order)
+    joined by ``quads`` (the same number per strip piece, in piece order), vertex ``normals``,
+    the primvars carried (:func:`carried_primvars`); shaded on both sides (ribbons have no
+    inside, tube meshes open ends)."""
+    per_sample = len(points) // len(samples.tangents)
+    per_pair = len(quads) // len(samples.pairs)
+    counts = np.full(len(quads), 4, dtype=np.int64)
+    topology = make_topology(points, counts, quads.ravel(), False, str(prim.GetPath()), diag)
+    if topology is None:
+        return None
+    return Surface(
+        prim,
+        topology,
+        normals=Primvar(normals, "vertex", "Normal"),
+        primvars=carried_primvars(samples, per_sample, per_pair),
+        double_sided=True,
+    )
 
 
 def _widths(

@@ -32,10 +32,9 @@ from pavonine.render.curves.bases import (
     read_widths,
     to_bspline,
 )
-from pavonine.render.curves.sampling import STEPS, carried_primvars, sample_curves
+from pavonine.render.curves.sampling import STEPS, sample_curves, strip_surface
 from pavonine.render.diagnostics import Diagnostics
-from pavonine.render.mesh import Surface, make_topology
-from pavonine.render.primvars import Primvar
+from pavonine.render.mesh import Surface
 from pavonine.render.xform import transform_points
 
 SIDES = 16  # vertices around a tessellated tube
@@ -101,17 +100,7 @@ def tube_surface(
     a = samples.pairs[:, :1] * sides
     b = samples.pairs[:, 1:] * sides
     quads = np.stack([a + k, a + (k + 1) % sides, b + (k + 1) % sides, b + k], axis=2)
-    counts = np.full(quads.shape[0] * sides, 4, dtype=np.int64)
-    surface_topology = make_topology(points, counts, quads.ravel(), False, topology.where, diag)
-    if surface_topology is None:
-        return None
-    return Surface(
-        prim,
-        surface_topology,
-        normals=Primvar(radial.reshape(-1, 3), "vertex", "Normal"),
-        primvars=carried_primvars(samples, per_sample=sides, per_pair=sides),
-        double_sided=True,  # open ends: seen through them, the inside is shaded
-    )
+    return strip_surface(prim, samples, points, quads.reshape(-1, 4), radial.reshape(-1, 3), diag)
 
 
 def _rotation_minimising(points: np.ndarray, tangents: np.ndarray, lengths: np.ndarray):
