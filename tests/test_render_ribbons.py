@@ -197,9 +197,9 @@ def feather_scene(path, tmp_path):
     return stage, create_feather_material(stage, "/Looks/Feather", params, maps)
 
 
-def barb(stage, material, prim_path, x0, y, length=1.0, gradation=None, primvars=True):
-    """A straight barb ribbon 1 unit wide along +X from (x0, y), facing +Z, carrying the feather
-    inputs as vertex primvars (``gradation``: its 4 control points' values)."""
+def barb(stage, material, prim_path, x0, y, length=1.0, gradation=None, primvars=True, width=1.0):
+    """A straight barb ribbon along +X from (x0, y), facing +Z, carrying the feather inputs as
+    vertex primvars (``gradation``: its 4 control points' values)."""
     from pxr import Sdf, UsdGeom, UsdShade
 
     curves = UsdGeom.BasisCurves.Define(stage, prim_path)
@@ -210,7 +210,7 @@ def barb(stage, material, prim_path, x0, y, length=1.0, gradation=None, primvars
     curves.CreatePointsAttr([(x0 + i * length / 3, y, 0) for i in range(4)])
     curves.CreateNormalsAttr([(0, 0, 1)] * 4)
     curves.SetNormalsInterpolation("varying")
-    curves.CreateWidthsAttr([1.0] * 4)
+    curves.CreateWidthsAttr([width] * 4)
     curves.SetWidthsInterpolation("vertex")
     api = UsdGeom.PrimvarsAPI(curves)
     if primvars:
@@ -274,26 +274,35 @@ def test_feather_on_a_ribbon_matches_the_sheet_with_the_same_inputs(tmp_path):
 
 
 def test_feather_primvars_are_read_on_an_instance_own_mesh(tmp_path):
-    """A ribbon whose gradation runs 0 → 0.9 along it, in place (top) and through a native
-    instance moved 1.5 units along the barb (bottom): the same colours at the same places along
-    it (Mitsuba locates a mesh attribute from the hit point against the prototype's vertices)."""
-    from pxr import Gf, UsdGeom
+    """A ribbon whose gradation runs 0 → 0.9 along it, in place (top), through a PointInstancer
+    (middle) and through a native instance (bottom), both moved 1.5 units along the barb: the
+    same colours at the same places along it (Mitsuba locates a mesh attribute from the hit point
+    against the prototype's vertices)."""
+    from pxr import Gf, Sdf, UsdGeom
 
     stage, material = feather_scene(tmp_path / "instanced.usda", tmp_path)
     ramp = [0.0, 0.3, 0.6, 0.9]
-    barb(stage, material, "/InPlace", -1.0, 0.75, length=2.0, gradation=ramp)
+    barb(stage, material, "/InPlace", -1.0, 0.9, length=2.0, gradation=ramp, width=0.6)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Instancer")
+    UsdGeom.Xform.Define(stage, "/Instancer/Prototypes/Barb")
+    barb(stage, material, "/Instancer/Prototypes/Barb/Ribbon", -2.5, 0, 2.0, ramp, width=0.6)
+    instancer.CreatePrototypesRel().SetTargets([Sdf.Path("/Instancer/Prototypes/Barb")])
+    instancer.CreateProtoIndicesAttr([0])
+    instancer.CreatePositionsAttr([(1.5, 0, 0)])
     stage.CreateClassPrim("/Prototypes")
     UsdGeom.Xform.Define(stage, "/Prototypes/Barb")
-    barb(stage, material, "/Prototypes/Barb/Ribbon", -2.5, 0.0, length=2.0, gradation=ramp)
+    barb(stage, material, "/Prototypes/Barb/Ribbon", -2.5, 0.0, 2.0, ramp, width=0.6)
     instance = stage.DefinePrim("/Instance")
     instance.GetReferences().AddInternalReference("/Prototypes/Barb")
     instance.SetInstanceable(True)
-    UsdGeom.Xformable(instance).AddTranslateOp().Set(Gf.Vec3d(1.5, -0.75, 0))
+    UsdGeom.Xformable(instance).AddTranslateOp().Set(Gf.Vec3d(1.5, -0.9, 0))
     stage.Save()
     rgb, warnings_ = render_feather(stage.GetRootLayer().realPath)
     assert warnings_ == []
-    along = [patch_mean(rgb, x, 0.75, half=4) for x in (-0.6, 0.0, 0.6)]
-    instanced = [patch_mean(rgb, x, -0.75, half=4) for x in (-0.6, 0.0, 0.6)]
+    along, instanced, native = (
+        [patch_mean(rgb, x, y, half=4) for x in (-0.6, 0.0, 0.6)] for y in (0.9, 0.0, -0.9)
+    )
     assert de(along[0], along[-1]) > 3.0  # the gradation shows along the barb
-    for a, b in zip(along, instanced, strict=True):
-        assert de(a, b) < 1.5  # broken (world hit point on the prototype): ΔE00 9 to 15
+    for a, b, c in zip(along, instanced, native, strict=True):
+        # broken (world hit point on the prototype): ΔE00 9 to 15
+        assert de(a, b) < 1.5 and de(a, c) < 1.5
