@@ -215,3 +215,11 @@ def turned(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:
     cos = np.sum(a * b, axis=1, keepdims=True)
     k = axis / np.maximum(sin, 1e-30)
     return v * cos + np.cross(k, v) * sin + k * np.sum(k * v, axis=1, keepdims=True) * (1 - cos)
+
+
+def test_non_finite_normals_read_as_zero_and_narrow_the_ribbon():
+    nan = float("nan")
+    surface, messages = tessellate(ribbon(STRAIGHT, [(nan, nan, nan)] * 2 + [(0, 0, 1)] * 2))
+    assert messages[0] == "/Barb: normals are NaN or infinite; those read as 0"
+    assert "narrows to nothing" in messages[1] and len(messages) == 2
+    assert np.all(np.isfinite(surface.topology.points))

@@ -86,6 +86,9 @@ def _normals(
     tubes = "rendered as round tubes"
     if normals.values.shape[1] != 3 or not fits(normals, topology, _NORMALS, diag, tubes):
         return None
+    if not np.all(np.isfinite(normals.values)):
+        diag.warn(topology.where, "normals are NaN or infinite; those read as 0")
+        normals.values = np.nan_to_num(normals.values, nan=0.0, posinf=0.0, neginf=0.0)
     return normals
 
 
