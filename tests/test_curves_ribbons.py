@@ -223,3 +223,13 @@ def test_non_finite_normals_read_as_zero_and_narrow_the_ribbon():
     assert messages[0] == "/Barb: normals are NaN or infinite; those read as 0"
     assert "narrows to nothing" in messages[1] and len(messages) == 2
     assert np.all(np.isfinite(surface.topology.points))
+
+
+def test_widths_overshooting_below_zero_in_the_basis_are_clamped():
+    curves = ribbon(STRAIGHT, [(0, 0, 1)] * 4, basis="catmullRom")
+    curves.CreateWidthsAttr([1.0, 1.0, 0.0, 0.0])  # Catmull-Rom dips below 0 before the last 0
+    curves.SetWidthsInterpolation("vertex")
+    surface, messages = tessellate(curves, steps=8)
+    across = edges(surface)[:, 1] - edges(surface)[:, 0]
+    assert messages == [] and np.all(across[:, 1] <= 0)  # S = T × N = −Y: no edge crosses over
+    assert across[:, 1].max() == 0.0

@@ -69,6 +69,9 @@ def sample_curves(
     samples = _sample(topology, data, steps)
     if samples is None:
         diag.warn(topology.where, "no curve has enough points for its basis; skipped")
+        return None
+    # a cubic basis can overshoot below 0 where vertex widths taper (Catmull-Rom, Bézier)
+    samples.values[WIDTHS] = np.maximum(samples.values[WIDTHS], 0.0)
     return samples
 
 
