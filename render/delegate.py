@@ -159,7 +159,7 @@ class StageDelegate:
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
             elif kind == "BasisCurves":
-                built, boxes = self._curves(prim, self.xforms.world(prim))
+                built, boxes = self._curves(prim, self.xforms.world(prim), world=True)
                 for i, shape in enumerate(built):
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
@@ -249,10 +249,16 @@ class StageDelegate:
         return shapes.implicit_surface(prim, self.time, self.diag)
 
     def _gprim(
-        self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool
+        self,
+        prim: Usd.Prim,
+        matrix_usd: np.ndarray,
+        world: bool,
+        surface: mesh.Surface | None = None,
     ) -> tuple[list, list[tuple[np.ndarray, np.ndarray]]]:
-        """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space."""
-        surface = self._surface(prim)
+        """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space
+        (``surface``: the prim already as polygons, e.g. tessellated ribbons)."""
+        curves_mesh = surface is not None and prim.GetTypeName() == "BasisCurves"
+        surface = self._surface(prim) if surface is None else surface
         if surface is None:
             return [], []
         built = []
@@ -260,6 +266,8 @@ class StageDelegate:
             mesh.material_groups(surface, self.time, self.diag)
         ):
             spec = self._material(material, prim)
+            if curves_mesh:  # tessellated ribbons or tubes
+                spec = spec.on_ribbon(prim, self.diag)
             uv_primvar, attributes = spec.primvars_for(prim)
             triangles = mesh.build_triangle_mesh(
                 surface,
@@ -323,15 +331,23 @@ class StageDelegate:
         self.scene.mesh_lights += 1
         return entry
 
-    def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
-        """A ``BasisCurves`` prim as one Mitsuba curve shape with its bound material."""
+    def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool = False) -> tuple:
+        """A ``BasisCurves`` prim: ribbons (authored normals) as a mesh like any gprim's; tubes as
+        one Mitsuba curve shape with its bound material, or a tube mesh when the material reads a
+        primvar that varies on them."""
+        if curves.has_normals(prim):
+            ribbons = curves.ribbon_surface(prim, self.time, self.diag)
+            if ribbons is not None:
+                return self._gprim(prim, matrix_usd, world, surface=ribbons)
+        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
+        spec = self._material(material if material else None, prim)
+        if curves.reads_varying_primvars(prim, spec.primvars):
+            tubes = curves.tube_surface(prim, self.time, self.diag)
+            return ([], []) if tubes is None else self._gprim(prim, matrix_usd, world, tubes)
         built = curves.curve_control_points(prim, matrix_usd, self.time, self.diag)
         if built is None:
             return [], []
         kind, control_points = built
-        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
-        spec = self._material(material if material else None, prim)
-        curves.warn_varying_primvars(prim, spec.primvars, self.diag)
         binding = spec.binding(prim, self.time, {})  # constant primvars only
         try:
             shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True, binding))

@@ -1,0 +1,109 @@
+"""``BasisCurves`` with authored ``normals`` → flat ribbons, tessellated into a triangle mesh.
+
+USD (UsdGeomBasisCurves, "Tubes and Ribbons"): curves with both widths and normals are imaged as
+ribbons oriented in the direction of the interpolated normal vectors, the widths being the
+ribbon's width. Each segment is evaluated exactly in its basis at a few parameters
+(:mod:`.sampling`). At each sample: the point P, the tangent T = dP/du, the normal N interpolated as authored (``vertex`` with the basis, ``varying`` linearly
+per segment, ``uniform`` per curve, ``constant``) and made perpendicular to the curve,
+N′ = normalize(N − (N·T̂)T̂), and the width w. The ribbon's edges are P ± (w/2)·S with
+S = normalize(T̂ × N′), and each quad (P−, P+, next P+, next P−) faces N′ (S × T̂ = N′).
+
+The result is a :class:`~pavonine.render.mesh.Surface` (quads) that the mesh translator turns
+into a Mitsuba mesh like any other (:func:`pavonine.render.mesh.build_triangle_mesh`): vertex
+normals N′; every numeric primvar carried to the samples (``vertex``/``varying``/``faceVarying``
+as vertex data, ``uniform`` per quad, ``constant`` as authored), so every shader that reads a
+primvar gets it (displayColor, displayOpacity, ``UsdPrimvarReader``, the feather's inputs); and
+the barb tangent T̂ as ``pavonine_barbTangent`` (unless the prim authors one), the direction the
+feather BSDF's barbule frame starts from. A ribbon has no inside: it is shaded on both sides.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from pavonine.render import attributes
+from pavonine.render.curves.bases import CurveTopology, read_curves
+from pavonine.render.curves.sampling import STEPS, fits, sample_curves, strip_surface
+from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.mesh import Surface
+from pavonine.render.primvars import Primvar, read_primvar
+
+_NORMALS = "normals"
+
+
+def has_normals(prim: Usd.Prim) -> bool:
+    """True when the curves author ``normals`` (or ``primvars:normals``): USD's ribbons."""
+    primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(_NORMALS)
+    if primvar and primvar.HasAuthoredValue():
+        return True
+    return UsdGeom.BasisCurves(prim).GetNormalsAttr().HasAuthoredValue()
+
+
+def ribbon_surface(
+    prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics, steps: int = STEPS
+) -> Surface | None:
+    """The curves as ribbon quads (object space); ``None`` (warned) when they cannot be ribbons:
+    no renderable curve, or normals that do not fit their interpolation (rendered as tubes)."""
+    topology = read_curves(prim, time, diag)
+    if topology is None:
+        return None
+    normals = _normals(prim, topology, time, diag)
+    if normals is None:
+        return None
+    samples = sample_curves(prim, topology, time, diag, {_NORMALS: normals}, steps)
+    if samples is None:
+        return None
+    values = samples.values
+    normal, side, bad = _frame(samples.tangents, values[_NORMALS])
+    if bad.any():
+        diag.warn(
+            topology.where,
+            f"{int(bad.sum())} of {len(bad)} ribbon samples have a zero normal, a normal along "
+            "the curve, or no curve direction; the ribbon narrows to nothing there",
+        )
+    half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
+    points = np.stack([values["P"] - side * half, values["P"] + side * half], 1).reshape(-1, 3)
+    a, b = samples.pairs[:, 0], samples.pairs[:, 1]
+    quads = np.stack([2 * a, 2 * a + 1, 2 * b + 1, 2 * b], axis=1)
+    return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag)
+
+
+def _normals(
+    prim: Usd.Prim, topology: CurveTopology, time: Usd.TimeCode, diag: Diagnostics
+) -> Primvar | None:
+    """``primvars:normals`` if authored, else ``normals`` with its interpolation; ``None``
+    (warned: the curves render as tubes) if they do not fit."""
+    normals = read_primvar(prim, _NORMALS, time, diag)
+    if normals is None:
+        attr = UsdGeom.BasisCurves(prim).GetNormalsAttr()
+        values = attributes.vec3_array(attr, time, diag)
+        if values is None or len(values) == 0:
+            diag.warn(topology.where, "normals are unusable; rendered as round tubes")
+            return None
+        interpolation = str(UsdGeom.BasisCurves(prim).GetNormalsInterpolation())
+        normals = Primvar(values, interpolation, "Normal")
+    tubes = "rendered as round tubes"
+    if normals.values.shape[1] != 3 or not fits(normals, topology, _NORMALS, diag, tubes):
+        return None
+    if not np.all(np.isfinite(normals.values)):
+        diag.warn(topology.where, "normals are NaN or infinite; those read as 0")
+        normals.values = np.nan_to_num(normals.values, nan=0.0, posinf=0.0, neginf=0.0)
+    return normals
+
+
+def _frame(tangents: np.ndarray, normals: np.ndarray):
+    """``(N′, S, bad)`` per sample: the normal made perpendicular to the tangent, the unit width
+    direction T̂ × N′, and the samples where either is undefined."""
+    length = np.linalg.norm(tangents, axis=1, keepdims=True)
+    t = tangents / np.maximum(length, 1e-30)
+    n = normals - np.sum(normals * t, axis=1, keepdims=True) * t
+    n_length = np.linalg.norm(n, axis=1, keepdims=True)
+    scale = np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    bad = (length[:, 0] <= 1e-12 * np.abs(tangents).max(initial=1.0)) | (
+        n_length[:, 0] <= 1e-6 * scale[:, 0]
+    )
+    n = np.where(bad[:, None], np.array([0.0, 0.0, 1.0]), n / np.maximum(n_length, 1e-30))
+    side = np.cross(t, n)
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-30)
+    return n, side, bad
