@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
 from pxr import Usd, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
@@ -91,7 +92,33 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
         attributes,
         two_sided=True,
         is_feather=True,
+        displacement=_displacement(material, maps.get("displacement"), diag),
     )
+
+
+def _displacement(material: UsdShade.Material, file: str | None, diag: Diagnostics):
+    """The displacement of a feather authored undisplaced (``pavonine:displacementHeight`` > 0):
+    its map, read raw, times the height; the BSDF keeps its bump map, as on a baked mesh."""
+    from pavonine.render.displacement import Displacement
+    from pavonine.render.shading.textures import TextureError, read_texels
+    from pavonine.schemas import authoring
+
+    try:
+        height = authoring.displacement_height(material)
+    except ParameterError as exc:
+        raise parameter_input_error(material.GetPrim(), exc) from None
+    if height <= 0.0:
+        return None
+    path = str(material.GetPath())
+    if not file:
+        diag.warn(path, f"{authoring.DISPLACEMENT_HEIGHT_ATTR} is set without a displacement map")
+        return None
+    try:
+        texels, _ = read_texels(file, "raw")
+    except TextureError as exc:
+        diag.warn(path, f"{exc}; the feather is rendered undisplaced")
+        return None
+    return Displacement(path, texels[..., 0], np.eye(3), "clamp", height, keep_bump=True)
 
 
 def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) -> None:
