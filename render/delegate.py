@@ -310,6 +310,7 @@ class StageDelegate:
                     bsdf,
                     self._load(emitter),
                     world,
+                    tuple(spec.attributes.values()),
                 )
             )
         self.scene.mesh_count += len(built)

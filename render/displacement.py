@@ -28,7 +28,8 @@ refines the surface first); once the cameras are known :func:`resolve` tessellat
 5. **Move**: ``P' = P + h · n`` with ``n`` the object-space unit normal carried through the
    mesh's transform (``h`` is in object units, as UsdPreviewSurface specifies); normals are then
    recomputed from the displaced triangles (area-weighted, welded across unwelded corners that
-   shared a position and a normal).
+   shared a position and a normal), and direction attributes (the feather's barb tangent) made
+   perpendicular to them again.
 
 Memory: a displaced triangle costs about :data:`BYTES_PER_TRIANGLE` in Mitsuba (measured by
 ``benchmarks/bench_displacement.py``), so the ceiling is about 2.4 GB.
@@ -189,9 +190,16 @@ def tessellate(mesh: TriangleMesh, level: int) -> TriangleMesh:
     )
 
 
-def displace(mesh: TriangleMesh, displacement: Displacement, matrix_usd: np.ndarray):
+def displace(
+    mesh: TriangleMesh,
+    displacement: Displacement,
+    matrix_usd: np.ndarray,
+    tangents: tuple[str, ...] = (),
+):
     """The mesh moved along its normals (steps 4-5); ``None`` if it has no texture coordinates
-    for a textured displacement."""
+    for a textured displacement. The ``tangents`` attributes (direction fields such as the
+    feather's barb tangent) are made perpendicular to the new normals again, as the converter
+    does for its baked vane."""
     normals = mesh.normals
     if normals is None:
         normals = welded_normals(mesh.positions, mesh.faces, None)
@@ -204,7 +212,19 @@ def displace(mesh: TriangleMesh, displacement: Displacement, matrix_usd: np.ndar
     object_normals /= np.where(length > 0, length, 1.0)
     positions = mesh.positions.astype(np.float64) + (h[:, None] * object_normals) @ linear
     moved = welded_normals(positions, mesh.faces, normals)
-    return replace(mesh, positions=positions.astype(np.float32), normals=moved.astype(np.float32))
+    attributes = dict(mesh.attributes)
+    for name in tangents:
+        if name in attributes:
+            t = attributes[name].astype(np.float64)
+            t = t - np.sum(t * moved, axis=1, keepdims=True) * moved
+            length = np.linalg.norm(t, axis=1, keepdims=True)
+            attributes[name] = (t / np.where(length > 0, length, 1.0)).astype(np.float32)
+    return replace(
+        mesh,
+        positions=positions.astype(np.float32),
+        normals=moved.astype(np.float32),
+        attributes=attributes,
+    )
 
 
 def welded_normals(positions: np.ndarray, faces: np.ndarray, before: np.ndarray | None):
@@ -242,6 +262,7 @@ class DisplacedMesh:
     fallback_bsdf: object  # loaded BSDF with the bump map, for the undisplaced fallback
     emitter: object | None
     world: bool
+    tangents: tuple[str, ...] = ()  # direction attributes kept perpendicular to the normal
 
 
 @dataclass(frozen=True)
@@ -371,7 +392,9 @@ def resolve(
                 f"displacement tessellation ceiling ({ceiling:,} triangles) reached: edges of "
                 f"about {target_px * want / level:.3g} px instead of {target_px:g} px",
             )
-        moved = displace(tessellate(item.triangles, level), item.displacement, item.matrix_usd)
+        moved = displace(
+            tessellate(item.triangles, level), item.displacement, item.matrix_usd, item.tangents
+        )
         if moved is None:
             diag.warn(
                 item.where,

@@ -154,3 +154,21 @@ def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
         for m in diag.messages
     )
     assert spec.bsdf["base_color"] == {"type": "rgb", "value": pytest.approx([0.8, 0.8, 0.8])}
+
+
+def test_a_connected_normal_without_a_default_is_warned_not_dropped(tmp_path):
+    """``normal`` has no default value (its nodedef reads the geometric normal): connected, it
+    is named in a warning (MaterialX's brick and chess-set examples connect it)."""
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.shading import translate_material
+
+    stage = new_stage(tmp_path / "normal.usda")
+    material, shader = mtlx_material(stage, "ND_standard_surface_surfaceshader")
+    node = UsdShade.Shader.Define(stage, "/Looks/X/NormalMap")
+    node.CreateIdAttr("ND_normalmap_float")
+    shader.CreateInput("normal", Sdf.ValueTypeNames.Float3).ConnectToSource(
+        node.ConnectableAPI(), "out"
+    )
+    diag = Diagnostics()
+    translate_material(material, stage.GetStartTimeCode(), diag)
+    assert any("normal is not translated" in w for w in diag.messages), diag.messages

@@ -179,7 +179,12 @@ def surface(shader: UsdShade.Shader, node_id: str, net: Network) -> dict[str, An
         emission = None
     translated = {getattr(layout, f) for f in Layout.__dataclass_fields__}
     for name, value in defaults.items():
-        if name not in translated and value is not None and net.differs(shader, name, value):
+        if name in translated:
+            continue
+        # inputs without a default value (normal, tangent: geometric properties) count when set
+        if value is None and not net.is_authored(shader, name):
+            continue
+        if value is None or net.differs(shader, name, value):
             net.warn(
                 where,
                 f"{name} is not translated to Mitsuba's principled BSDF (an approximation of "
