@@ -31,8 +31,9 @@ refines the surface first); once the cameras are known :func:`resolve` tessellat
    shared a position and a normal), and direction attributes (the feather's barb tangent) made
    perpendicular to them again.
 
-Memory: a displaced triangle costs about :data:`BYTES_PER_TRIANGLE` in Mitsuba (measured by
-``benchmarks/bench_displacement.py``), so the ceiling is about 2.4 GB.
+Memory: a displaced triangle costs about :data:`BYTES_PER_TRIANGLE` at peak (Mitsuba's buffers and
+BVH plus the tessellation's temporaries; measured by ``benchmarks/bench_displacement.py``: +55 MB
+for 131,072 triangles), so the ceiling is about 3.5 GB.
 """
 
 from __future__ import annotations
@@ -50,8 +51,8 @@ from pavonine.render.mesh import TriangleMesh, face_normals_at_vertices, to_mits
 TARGET_EDGE_PX = 1.0
 #: Triangles all displaced meshes of one render may have together (memory ceiling, see above).
 MAX_TRIANGLES = 8_000_000
-#: Bytes per displaced triangle in Mitsuba (vertex buffers, faces and BVH): the ceiling's memory.
-BYTES_PER_TRIANGLE = 300
+#: Peak bytes per displaced triangle (measured, see the module docstring): the ceiling's memory.
+BYTES_PER_TRIANGLE = 440
 #: Largest per-mesh level (each triangle into at most MAX_LEVEL² triangles).
 MAX_LEVEL = 256
 
