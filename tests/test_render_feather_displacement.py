@@ -11,6 +11,7 @@ the undisplaced feather does not.
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,26 +28,11 @@ SPP = 32
 @pytest.fixture(scope="module")
 def feathers(tmp_path_factory):
     """(baked stage, displaced-at-render-time stage, undisplaced stage) of the eye feather."""
-    from conftest import missing_system_tools
-
-    reason = missing_system_tools().get("convert")
-    if reason:
-        pytest.skip(reason)
-    from pavonine.pipeline.convert.batch import convert_recipe
-    from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
+    from conftest import convert_eye
 
     work = tmp_path_factory.mktemp("feather_displacement")
-    write_maps(generate_maps("eye", 256, seed=4), work / "m")
-    maps = "\n".join(f'{name} = "m/{name}.png"' for name in MAP_NAMES)
     for name, cm in (("baked", HEIGHT_CM), ("flat", 0.0)):
-        (work / f"{name}.toml").write_text(
-            f'name = "eye_{name}"\n[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
-            f"[geometry]\nlength_cm = 20\nrachis_length = 0.74\ndisplacement_cm = {cm}\n"
-            "[geometry.lod]\nhigh = 8000\nmedium = 2000\nlow = 500\n[bake]\nresolution = 32\n"
-        )
-        convert_recipe(work / f"{name}.toml", work / "out")
-    from pathlib import Path
-
+        convert_eye(work, f"eye_{name}", f"displacement_cm = {cm}\n", "8000, 2000, 500", 32)
     scene = (Path(__file__).parents[1] / "assets/scenes/eye_feather_sun.usda").read_text()
     over = (
         '    )\n    {\n        over "Materials"\n        {\n            over "Feather"\n'
@@ -54,15 +40,15 @@ def feathers(tmp_path_factory):
         "            }\n        }\n    }\n"
     )
     stages = []
-    for name, asset, height in (
-        ("baked", "baked", None),
-        ("displaced", "flat", 1),
-        ("flat", "flat", None),
+    for name, asset, displaced in (
+        ("baked", "baked", False),
+        ("displaced", "flat", True),
+        ("flat", "flat", False),
     ):
         text = scene.replace(
             "@../feathers/eye_feather/eye_feather.usd@", f"@{work}/out/eye_{asset}/eye_{asset}.usd@"
         )
-        if height:
+        if displaced:
             text = text.replace("    )\n    {\n    }\n", over, 1)
         path = work / f"{name}.usda"
         path.write_text(text)

@@ -27,6 +27,14 @@ def mtlx_material(stage, node_id, path="/Looks/X", **inputs):
     return material, shader
 
 
+def fed_by(stage, shader, name: str, node_id: str, kind) -> UsdShade.Shader:
+    """A node ``node_id`` beside ``shader`` whose ``out`` feeds its input ``name``."""
+    node = UsdShade.Shader.Define(stage, shader.GetPath().GetParentPath().AppendChild("Fed"))
+    node.CreateIdAttr(node_id)
+    shader.CreateInput(name, kind).ConnectToSource(node.ConnectableAPI(), "out")
+    return node
+
+
 def tiled_image(stage, parent, file, **inputs):
     node = UsdShade.Shader.Define(stage, f"{parent}/Image")
     node.CreateIdAttr("ND_tiledimage_color3")
@@ -135,11 +143,7 @@ def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
     stage = new_stage(tmp_path / "others.usda")
     gltf, _ = mtlx_material(stage, "ND_gltf_pbr_surfaceshader", "/Looks/Gltf")
     material, shader = mtlx_material(stage, "ND_standard_surface_surfaceshader")
-    multiply = UsdShade.Shader.Define(stage, "/Looks/X/Multiply")
-    multiply.CreateIdAttr("ND_multiply_color3")
-    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
-        multiply.ConnectableAPI(), "out"
-    )
+    fed_by(stage, shader, "base_color", "ND_multiply_color3", Sdf.ValueTypeNames.Color3f)
     diag = Diagnostics()
     with pytest.warns(UserWarning):
         grey = translate_material(gltf, Usd.TimeCode.Default(), diag)
@@ -150,7 +154,7 @@ def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
         "rendering grey diffuse" in diag.messages
     )
     assert any(
-        m.startswith("/Looks/X/Multiply: shader 'ND_multiply_color3' feeding")
+        m.startswith("/Looks/X/Fed: shader 'ND_multiply_color3' feeding")
         for m in diag.messages
     )
     assert spec.bsdf["base_color"] == {"type": "rgb", "value": pytest.approx([0.8, 0.8, 0.8])}
@@ -164,11 +168,7 @@ def test_a_connected_normal_without_a_default_is_warned_not_dropped(tmp_path):
 
     stage = new_stage(tmp_path / "normal.usda")
     material, shader = mtlx_material(stage, "ND_standard_surface_surfaceshader")
-    node = UsdShade.Shader.Define(stage, "/Looks/X/NormalMap")
-    node.CreateIdAttr("ND_normalmap_float")
-    shader.CreateInput("normal", Sdf.ValueTypeNames.Float3).ConnectToSource(
-        node.ConnectableAPI(), "out"
-    )
+    fed_by(stage, shader, "normal", "ND_normalmap_float", Sdf.ValueTypeNames.Float3)
     diag = Diagnostics()
     translate_material(material, stage.GetStartTimeCode(), diag)
     assert any("normal is not translated" in w for w in diag.messages), diag.messages
