@@ -154,8 +154,7 @@ def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
         "rendering grey diffuse" in diag.messages
     )
     assert any(
-        m.startswith("/Looks/X/Fed: shader 'ND_multiply_color3' feeding")
-        for m in diag.messages
+        m.startswith("/Looks/X/Fed: shader 'ND_multiply_color3' feeding") for m in diag.messages
     )
     assert spec.bsdf["base_color"] == {"type": "rgb", "value": pytest.approx([0.8, 0.8, 0.8])}
 

@@ -99,8 +99,8 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
 def _displacement(material: UsdShade.Material, file: str | None, diag: Diagnostics):
     """The displacement of a feather authored undisplaced (``pavonine:displacementHeight`` > 0):
     its map, read raw, times the height; the BSDF keeps its bump map, as on a baked mesh."""
+    from pavonine.pipeline.maps.io import read_map
     from pavonine.render.displacement import Displacement
-    from pavonine.render.shading.textures import TextureError, read_texels
     from pavonine.schemas import authoring
 
     try:
@@ -114,11 +114,11 @@ def _displacement(material: UsdShade.Material, file: str | None, diag: Diagnosti
         diag.warn(path, f"{authoring.DISPLACEMENT_HEIGHT_ATTR} is set without a displacement map")
         return None
     try:
-        texels, _ = read_texels(file, "raw")
-    except TextureError as exc:
+        grey = read_map(file, authoring.MAP_ATTRS["displacement"])  # as convert reads it
+    except InputError as exc:
         diag.warn(path, f"{exc}; the feather is rendered undisplaced")
         return None
-    return Displacement(path, texels[..., 0], np.eye(3), "clamp", height, keep_bump=True)
+    return Displacement(path, grey, np.eye(3), "clamp", height, keep_bump=True)
 
 
 def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) -> None:
