@@ -140,3 +140,46 @@ def test_preview_displacement_without_a_terminal_is_warned(tmp_path):
     spec = translate_material(UsdShade.Material(material.GetPrim()), stage.GetStartTimeCode(), diag)
     assert spec.displacement is None
     assert any("no displacement output of the material connects" in w for w in diag.messages)
+
+
+def terminal_material(tmp_path, context: str, node_id: str | None):
+    """A material whose ``context`` displacement terminal reads a 2×2 texture (through
+    ``node_id`` with scale 0.5, or straight from the texture when ``None``)."""
+    stage = new_stage(tmp_path / f"terminal_{context or 'universal'}.usda")
+    material, _ = preview(stage, diffuseColor=(0.5, 0.5, 0.5))
+    file = image(tmp_path / "grey.png", np.full((2, 2, 3), 255, np.uint8))
+    tex = texture(stage, "/Looks/M", file, sourceColorSpace="raw")
+    source = tex
+    if node_id is not None:
+        source = UsdShade.Shader.Define(stage, "/Looks/M/Displace")
+        source.CreateIdAttr(node_id)
+        source.CreateInput("scale", Sdf.ValueTypeNames.Float).Set(0.5)
+        source.CreateInput("displacement", Sdf.ValueTypeNames.Float).ConnectToSource(
+            tex.ConnectableAPI(), "r"
+        )
+    output = "out" if node_id is not None else "r"
+    material.CreateDisplacementOutput(context).ConnectToSource(source.ConnectableAPI(), output)
+    return stage, material
+
+
+def translated(stage, material):
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.shading import translate_material
+
+    diag = Diagnostics()
+    return translate_material(material, stage.GetStartTimeCode(), diag), diag.messages
+
+
+def test_materialx_displacementshader_and_hdmitsuba_terminal_displace(tmp_path):
+    spec, messages = translated(*terminal_material(tmp_path, "mtlx", "ND_displacement_float"))
+    assert spec.displacement is not None and spec.displacement.scale == 0.5, messages
+    assert spec.bsdf["type"] == "bumpmap"  # the fallback
+    spec, messages = translated(*terminal_material(tmp_path, "mitsuba", None))
+    assert spec.displacement is not None and spec.displacement.offset == -0.5, messages
+    uv = np.array([[0.5, 0.5]] * 3)
+    assert displacement.heights(spec.displacement, uv, np.array([[0, 1, 2]])) == pytest.approx(
+        [0.5] * 3  # white texel 1 − ½ (hdmitsuba's centring)
+    )
+    spec, messages = translated(*terminal_material(tmp_path, "mtlx", "ND_displacement_vector3"))
+    assert spec.displacement is None
+    assert any("ND_displacement_vector3" in m and "not supported" in m for m in messages)
