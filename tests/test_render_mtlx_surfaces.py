@@ -171,3 +171,33 @@ def test_a_connected_normal_without_a_default_is_warned_not_dropped(tmp_path):
     diag = Diagnostics()
     translate_material(material, stage.GetStartTimeCode(), diag)
     assert any("normal is not translated" in w for w in diag.messages), diag.messages
+
+
+@pytest.mark.parametrize("order", [0, 1])
+def test_place2d_matrix_follows_the_materialx_graph(tmp_path, order):
+    """``ND_place2d_vector2`` against its node graph (stdlib_ng.mtlx) evaluated step by step."""
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.shading.materialx import place2d
+    from pavonine.render.shading.network import Network
+
+    stage = new_stage(tmp_path / "place2d.usda")
+    node = UsdShade.Shader.Define(stage, "/Place")
+    node.CreateIdAttr("ND_place2d_vector2")
+    values = {"pivot": (0.5, 0.25), "scale": (2.0, 0.5), "offset": (0.1, -0.3)}
+    for name, value in values.items():
+        node.CreateInput(name, Sdf.ValueTypeNames.Float2).Set(value)
+    node.CreateInput("rotate", Sdf.ValueTypeNames.Float).Set(30.0)
+    node.CreateInput("operationorder", Sdf.ValueTypeNames.Int).Set(order)
+    matrix = place2d(node, Network("/M", stage.GetStartTimeCode(), Diagnostics()))
+
+    def rotate2d(v, degrees):  # mx_rotate_vector2
+        a = np.radians(degrees)
+        return np.array([np.cos(a) * v[0] + np.sin(a) * v[1], -np.sin(a) * v[0] + np.cos(a) * v[1]])
+
+    pivot, scale, offset = (np.array(values[k]) for k in ("pivot", "scale", "offset"))
+    for t in (np.array([0.0, 0.0]), np.array([0.7, 0.9])):
+        if order == 0:
+            expected = rotate2d((t - pivot) / scale, 30.0) - offset + pivot
+        else:
+            expected = rotate2d(t - pivot - offset, 30.0) / scale + pivot
+        assert (matrix @ [*t, 1.0])[:2] == pytest.approx(expected)
