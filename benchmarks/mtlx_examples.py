@@ -289,7 +289,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=int, default=96, help="image width (default 96)")
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--only", default=None, help="only documents whose name contains this")
+    parser.add_argument(
+        "--table", type=Path, nargs="*", help="print the table of earlier runs' report.json files"
+    )
     args = parser.parse_args(argv)
+    if args.table:
+        rows = {}
+        for report in args.table:
+            rows.update({r["material"]: r for r in json.loads(report.read_text())})
+        print_table(sorted(rows.values(), key=lambda r: r["material"]))
+        return 0
     paths = [p for p in documents(args.materialx) if not args.only or args.only in p.name]
     if not paths:
         print(
@@ -350,14 +359,27 @@ def print_table(rows: list[dict]) -> None:
         marks = f"{len(passed)}/{len(passed) + len(failed)}" + (
             f" (fails: {', '.join(failed)})" if failed else ""
         )
-        notes = "; ".join(sorted({_short(w) for w in row["warnings"]})) or "none"
-        print(f"| {row['material']} | {marks} | {notes} |")
+        print(f"| {row['material']} | {marks} | {summary(row['warnings'])} |")
     total = sum(not [k for k, ok in r["checks"].items() if ok is False] for r in rows)
     print(f"\n{total}/{len(rows)} materials pass every check")
 
 
+UNTRANSLATED = " is not translated to Mitsuba's principled BSDF"
+
+
+def summary(warnings: list[str]) -> str:
+    """Warnings in short: the untranslated inputs by name, then every other message once
+    (without the prim path's material prefix: the table names the material)."""
+    names = sorted(
+        {w.split(": ", 1)[-1].split(UNTRANSLATED)[0] for w in warnings if UNTRANSLATED in w}
+    )
+    others = sorted({_short(w) for w in warnings if UNTRANSLATED not in w})
+    parts = ([f"not translated: {', '.join(names)}"] if names else []) + others
+    return "; ".join(parts) or "none"
+
+
 def _short(warning: str) -> str:
-    """A warning without its prim path's material prefix (the table names the material)."""
+    """A warning with its prim path cut to the last element."""
     where, _, message = warning.partition(": ")
     return f"{where.rsplit('/', 1)[-1]}: {message}" if message else warning
 
