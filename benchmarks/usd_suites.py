@@ -218,6 +218,7 @@ def coverage_mask(stage_path: Path, camera: str | None, size: tuple[int, int]) -
     import mitsuba as mi
 
     from pavonine.render import camera as camera_translator
+    from pavonine.render import displacement
     from pavonine.render.api import scene_objects
     from pavonine.render.delegate import StageDelegate, open_stage, render_time
     from pavonine.render.diagnostics import Diagnostics
@@ -238,11 +239,14 @@ def coverage_mask(stage_path: Path, camera: str | None, size: tuple[int, int]) -
         bounds = synced.bounds or (np.full(3, -1.0), np.full(3, 1.0))
         sensor = camera_translator.framing_camera(bounds, synced.up_axis)
     film = {"type": "hdrfilm", "width": size[0], "height": size[1], "rfilter": {"type": "box"}}
+    shapes = scene_objects(synced.shapes, {})
+    view = displacement.view_of(sensor.sensor, sensor.to_world, size)
+    displacement.resolve(shapes, [view], synced.bounds, diag)
     scene_dict = {
         "type": "scene",
         "integrator": {"type": "aov", "aovs": "depth:depth"},
         "sensor": {**sensor.sensor, "film": film, "sampler": {"type": "stratified"}},
-        **scene_objects(synced.shapes, {}),
+        **shapes,
     }
     hits = [
         np.asarray(mi.render(mi.load_dict(scene_dict), spp=1, seed=s))[..., 0] for s in range(4)

@@ -27,7 +27,7 @@ from pavonine.backend import select_variant
 from pavonine.pipeline.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
-from pavonine.render import instance_primvars, lights
+from pavonine.render import displacement, instance_primvars, lights
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
@@ -154,6 +154,11 @@ def render_products(
     for index, job in enumerate(jobs):
         scene_dict[f"sensor_{index}"] = _sensor_dict(job)
     scene_dict.update(scene_objects(synced.shapes, emitters))
+    views = [
+        displacement.view_of(j.sensor.sensor, j.sensor.to_world, (j.film_width, j.size[1]))
+        for j in jobs
+    ]
+    displacement.resolve(scene_dict, views, synced.bounds, diag)
     gc.collect()  # see passes.render_pass
     try:
         # Built in order, not on Mitsuba's thread pool: registry ids (which Dr.Jit writes into the

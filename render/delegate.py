@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
@@ -18,6 +18,7 @@ from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 from pavonine.pipeline.errors import InputError
 from pavonine.render import (
     curves,
+    displacement,
     instancing,
     lights,
     materials,
@@ -288,10 +289,11 @@ class StageDelegate:
                 continue
             binding = spec.binding(prim, self.time, triangles.attributes)
             bsdf = self._bsdf(spec, surface.double_sided, binding)
-            built.append((triangles, bsdf, spec, binding))
+            displaced = self._displaced_bsdf(spec, surface.double_sided, binding)
+            built.append((triangles, bsdf, spec, binding, displaced))
         light = self._mesh_light(prim, sum(t.area() for t, *_ in built), world)
         meshes = []
-        for triangles, bsdf, spec, binding in built:
+        for triangles, bsdf, spec, binding, displaced in built:
             if light is not None and spec.emission is not None:
                 self.diag.warn(
                     str(prim.GetPath()),
@@ -303,9 +305,34 @@ class StageDelegate:
                 if light is not None
                 else self._emission(spec, binding, prim, surface.double_sided, world)
             )
-            meshes.append(mesh.to_mitsuba_mesh(triangles, bsdf, self._load(emitter)))
+            if displaced is None:
+                meshes.append(mesh.to_mitsuba_mesh(triangles, bsdf, self._load(emitter)))
+                continue
+            meshes.append(  # tessellated once the cameras are known (api: displacement.resolve)
+                displacement.DisplacedMesh(
+                    str(prim.GetPath()),
+                    triangles,
+                    matrix_usd,
+                    spec.displacement,
+                    displaced,
+                    bsdf,
+                    self._load(emitter),
+                    world,
+                    tuple(spec.attributes.values()),
+                )
+            )
         self.scene.mesh_count += len(built)
         return meshes, [t.bounds() for t, *_ in built]
+
+    def _displaced_bsdf(self, spec: materials.MaterialSpec, double_sided: bool, binding):
+        """The BSDF of a displaced mesh (the material's own, or without its bump-map fallback),
+        ``None`` when the material does not displace."""
+        if spec.displacement is None:
+            return None
+        if spec.displacement.keep_bump or spec.bsdf.get("type") != "bumpmap":
+            return self._bsdf(spec, double_sided, binding)
+        bare = replace(spec, key=f"{spec.key}#displaced", bsdf=spec.bsdf["bsdf"])
+        return self._bsdf(bare, double_sided, binding)
 
     def _gprim_in_prototype(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
         return self._gprim(prim, matrix_usd, world=False)

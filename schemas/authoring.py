@@ -293,6 +293,23 @@ def resolve_maps(material: Usd.Prim | UsdShade.Material) -> dict[str, str | None
     return out
 
 
+#: Height (stage units) of the displacement map at 1 for meshes authored undisplaced (schema.usda).
+DISPLACEMENT_HEIGHT_ATTR = "pavonine:displacementHeight"
+
+
+def displacement_height(material: Usd.Prim | UsdShade.Material) -> float:
+    """``pavonine:displacementHeight`` (0 when unauthored: the mesh carries its displacement).
+
+    Raises :class:`ParameterError` naming the attribute when it is not a finite number ≥ 0.
+    """
+    value = _typed_value(_as_prim(material), DISPLACEMENT_HEIGHT_ATTR, Sdf.ValueTypeNames.Float)
+    if value is None:
+        return 0.0
+    if not (float(value) >= 0.0 and float(value) < float("inf")):
+        raise ParameterError(DISPLACEMENT_HEIGHT_ATTR, f"must be a finite number >= 0, got {value}")
+    return float(value)
+
+
 def _typed_value(prim: Usd.Prim, name: str, vtype: Sdf.ValueTypeName):
     """The value of attribute ``name``; :class:`ParameterError` if authored with another type."""
     attr = prim.GetAttribute(name)

@@ -143,19 +143,29 @@ def pytest_runtest_makereport(item, call):
 def eye_asset(tmp_path_factory):
     """A converted eye feather shared by the portable-asset tests (256-px maps, 12k/4k/1k
     triangles, 256² baked textures; the shipped feathers' freyer2020 preset). Tests that change it work on a copy."""
+    return convert_eye(tmp_path_factory.mktemp("eye_asset"), "eye_feather")
+
+
+def convert_eye(
+    work, name: str, geometry: str = "", lods: str = "12000, 4000, 1000", bake: int = 256
+):
+    """The eye feather converted from 256-px painted maps (seed 4) into ``work/out/<name>``
+    (``geometry``: extra ``[geometry]`` lines; ``lods``: high, medium, low); its root folder.
+    Skips when the converter's system tools are missing."""
     reason = missing_system_tools().get("convert")
     if reason:
         pytest.skip(reason)
     from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
 
-    work = tmp_path_factory.mktemp("eye_asset")
-    write_maps(generate_maps("eye", 256, seed=4), work / "m")
-    maps = "\n".join(f'{name} = "m/{name}.png"' for name in MAP_NAMES)
-    (work / "eye.toml").write_text(
-        f'name = "eye_feather"\n[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
-        "[geometry]\nlength_cm = 20\nrachis_length = 0.74\n"
-        "[geometry.lod]\nhigh = 12000\nmedium = 4000\nlow = 1000\n[bake]\nresolution = 256\n"
+    if not (work / "m").is_dir():
+        write_maps(generate_maps("eye", 256, seed=4), work / "m")
+    maps = "\n".join(f'{map_name} = "m/{map_name}.png"' for map_name in MAP_NAMES)
+    high, medium, low = (int(n) for n in lods.split(","))
+    (work / f"{name}.toml").write_text(
+        f'name = "{name}"\n[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
+        f"[geometry]\nlength_cm = 20\nrachis_length = 0.74\n{geometry}"
+        f"[geometry.lod]\nhigh = {high}\nmedium = {medium}\nlow = {low}\n"
+        f"[bake]\nresolution = {bake}\n"
     )
-    result = convert_recipe(work / "eye.toml", work / "out")
-    return result.root
+    return convert_recipe(work / f"{name}.toml", work / "out").root

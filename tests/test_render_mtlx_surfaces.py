@@ -27,6 +27,14 @@ def mtlx_material(stage, node_id, path="/Looks/X", **inputs):
     return material, shader
 
 
+def fed_by(stage, shader, name: str, node_id: str, kind) -> UsdShade.Shader:
+    """A node ``node_id`` beside ``shader`` whose ``out`` feeds its input ``name``."""
+    node = UsdShade.Shader.Define(stage, shader.GetPath().GetParentPath().AppendChild("Fed"))
+    node.CreateIdAttr(node_id)
+    shader.CreateInput(name, kind).ConnectToSource(node.ConnectableAPI(), "out")
+    return node
+
+
 def tiled_image(stage, parent, file, **inputs):
     node = UsdShade.Shader.Define(stage, f"{parent}/Image")
     node.CreateIdAttr("ND_tiledimage_color3")
@@ -135,11 +143,7 @@ def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
     stage = new_stage(tmp_path / "others.usda")
     gltf, _ = mtlx_material(stage, "ND_gltf_pbr_surfaceshader", "/Looks/Gltf")
     material, shader = mtlx_material(stage, "ND_standard_surface_surfaceshader")
-    multiply = UsdShade.Shader.Define(stage, "/Looks/X/Multiply")
-    multiply.CreateIdAttr("ND_multiply_color3")
-    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
-        multiply.ConnectableAPI(), "out"
-    )
+    fed_by(stage, shader, "base_color", "ND_multiply_color3", Sdf.ValueTypeNames.Color3f)
     diag = Diagnostics()
     with pytest.warns(UserWarning):
         grey = translate_material(gltf, Usd.TimeCode.Default(), diag)
@@ -150,7 +154,50 @@ def test_other_materialx_nodes_and_surfaces_are_warned(tmp_path):
         "rendering grey diffuse" in diag.messages
     )
     assert any(
-        m.startswith("/Looks/X/Multiply: shader 'ND_multiply_color3' feeding")
-        for m in diag.messages
+        m.startswith("/Looks/X/Fed: shader 'ND_multiply_color3' feeding") for m in diag.messages
     )
     assert spec.bsdf["base_color"] == {"type": "rgb", "value": pytest.approx([0.8, 0.8, 0.8])}
+
+
+def test_a_connected_normal_without_a_default_is_warned_not_dropped(tmp_path):
+    """``normal`` has no default value (its nodedef reads the geometric normal): connected, it
+    is named in a warning (MaterialX's brick and chess-set examples connect it)."""
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.shading import translate_material
+
+    stage = new_stage(tmp_path / "normal.usda")
+    material, shader = mtlx_material(stage, "ND_standard_surface_surfaceshader")
+    fed_by(stage, shader, "normal", "ND_normalmap_float", Sdf.ValueTypeNames.Float3)
+    diag = Diagnostics()
+    translate_material(material, stage.GetStartTimeCode(), diag)
+    assert any("normal is not translated" in w for w in diag.messages), diag.messages
+
+
+@pytest.mark.parametrize("order", [0, 1])
+def test_place2d_matrix_follows_the_materialx_graph(tmp_path, order):
+    """``ND_place2d_vector2`` against its node graph (stdlib_ng.mtlx) evaluated step by step."""
+    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.shading.materialx import place2d
+    from pavonine.render.shading.network import Network
+
+    stage = new_stage(tmp_path / "place2d.usda")
+    node = UsdShade.Shader.Define(stage, "/Place")
+    node.CreateIdAttr("ND_place2d_vector2")
+    values = {"pivot": (0.5, 0.25), "scale": (2.0, 0.5), "offset": (0.1, -0.3)}
+    for name, value in values.items():
+        node.CreateInput(name, Sdf.ValueTypeNames.Float2).Set(value)
+    node.CreateInput("rotate", Sdf.ValueTypeNames.Float).Set(30.0)
+    node.CreateInput("operationorder", Sdf.ValueTypeNames.Int).Set(order)
+    matrix = place2d(node, Network("/M", stage.GetStartTimeCode(), Diagnostics()))
+
+    def rotate2d(v, degrees):  # mx_rotate_vector2
+        a = np.radians(degrees)
+        return np.array([np.cos(a) * v[0] + np.sin(a) * v[1], -np.sin(a) * v[0] + np.cos(a) * v[1]])
+
+    pivot, scale, offset = (np.array(values[k]) for k in ("pivot", "scale", "offset"))
+    for t in (np.array([0.0, 0.0]), np.array([0.7, 0.9])):
+        if order == 0:
+            expected = rotate2d((t - pivot) / scale, 30.0) - offset + pivot
+        else:
+            expected = rotate2d(t - pivot - offset, 30.0) / scale + pivot
+        assert (matrix @ [*t, 1.0])[:2] == pytest.approx(expected)

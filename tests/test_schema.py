@@ -23,6 +23,7 @@ from pavonine.materials.parameters import (
 )
 from pavonine.schemas import generate, plugin
 from pavonine.schemas.authoring import (
+    DISPLACEMENT_HEIGHT_ATTR,
     MAP_ATTRS,
     create_feather_material,
     read_feather_parameters,
@@ -96,7 +97,8 @@ def test_schema_definition_fallbacks_docs_and_units():
     assert definition is not None
     expected = generate.fallback_values()
     names = set(definition.GetPropertyNames())
-    assert set(expected) | {a for a in MAP_ATTRS.values()} == names
+    assert set(expected) | {a for a in MAP_ATTRS.values()} | {DISPLACEMENT_HEIGHT_ATTR} == names
+    assert definition.GetAttributeFallbackValue(DISPLACEMENT_HEIGHT_ATTR) == 0.0
     for name, value in expected.items():
         fallback = definition.GetAttributeFallbackValue(name)
         assert generate._flat(fallback) == generate._flat(value), name

@@ -42,10 +42,14 @@ from pavonine.pipeline.convert.collapse import collapse_to
 from pavonine.pipeline.convert.meshing import meshing_backend
 from pavonine.pipeline.convert.rachis import RachisSpec, base_rachis, rachis_positions
 from pavonine.pipeline.convert.refinement import RefinedMesh, refine, subdivision_for
-from pavonine.pipeline.convert.surface import FeatherFrame, normalise, prefilter, vertex_normals
+from pavonine.pipeline.convert.surface import (
+    FeatherFrame,
+    displacement_heights,
+    normalise,
+    vertex_normals,
+)
 from pavonine.pipeline.convert.topology import edge_report
 from pavonine.pipeline.convert.vane import base_vane, triangle_areas
-from pavonine.pipeline.maps.io import sample_bilinear
 
 
 @dataclass
@@ -160,7 +164,7 @@ def vane_piece_count(
 def _vane_mesh(geo: FeatherGeometry, refined: RefinedMesh, spacing: float) -> MeshData:
     frame = geo.frame
     uv = np.clip(refined.attributes, 0.0, 1.0)
-    heights = geo.displacement_cm * sample_bilinear(prefilter(geo.displacement, spacing), uv)
+    heights = displacement_heights(geo.displacement, uv, geo.displacement_cm, spacing)
     base = frame.position(uv)
     normal = frame.normal(uv)
     points = base + heights[:, None] * normal

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from pavonine.pipeline.maps.io import FILTER_MODES, sample_bilinear
+
 
 @dataclass
 class FeatherFrame:
@@ -74,10 +76,21 @@ def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return normalise(normals)
 
 
-def prefilter(values: np.ndarray, spacing_uv: float) -> np.ndarray:
+def prefilter(values: np.ndarray, spacing_uv: float, wrap: str = "clamp") -> np.ndarray:
     """Low-pass a map to a mesh whose vertices are ``spacing_uv`` (feather v units) apart,
-    so displacement sampled at vertices does not alias (Gaussian, σ = ½ vertex spacing)."""
+    so displacement sampled at vertices does not alias (Gaussian, σ = ½ vertex spacing).
+    ``wrap``: how the map continues beyond its edges (:data:`~pavonine.pipeline.maps.io.FILTER_MODES`)."""
     sigma = 0.5 * spacing_uv * values.shape[0]
     if sigma < 0.5:
         return values
-    return ndimage.gaussian_filter(values, sigma, mode="nearest")
+    return ndimage.gaussian_filter(values, sigma, mode=FILTER_MODES[wrap])
+
+
+def displacement_heights(
+    values: np.ndarray, uv: np.ndarray, height: float, spacing_uv: float, wrap: str = "clamp"
+) -> np.ndarray:
+    """``h · d(u, v)`` (module docstring): the map ``values`` (H×W) low-passed to the vertex
+    ``spacing_uv`` (:func:`prefilter`) and read bilinearly at ``uv`` (feather space, v up), times
+    the displacement height ``height``. The one formula for the converter's baked vane and the
+    renderer's displacement at render time (:mod:`pavonine.render.displacement`)."""
+    return float(height) * sample_bilinear(prefilter(values, spacing_uv, wrap), uv, wrap)

@@ -160,19 +160,28 @@ def read_map(path: str | os.PathLike, field: str) -> np.ndarray:
     return read_data_map(path, field).values
 
 
-def sample_bilinear(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:
+#: Texture wrap modes (Mitsuba's names) → SciPy's boundary modes for interpolation and filters
+#: (``grid-wrap`` interpolates between the last and the first texel, as a repeating texture does).
+WRAP_MODES = {"clamp": "nearest", "repeat": "grid-wrap", "mirror": "mirror"}
+FILTER_MODES = {"clamp": "nearest", "repeat": "wrap", "mirror": "mirror"}
+
+
+def sample_bilinear(values: np.ndarray, feather_uv: np.ndarray, wrap: str = "clamp") -> np.ndarray:
     """Bilinear lookup of a map at feather-space coordinates.
 
     ``feather_uv[:, 0] = u`` runs left → right across the image, ``feather_uv[:, 1] = v`` runs
     bottom → top: ``(0, 0)`` is the bottom-left corner of the image's bottom-left pixel and
     ``(1, 1)`` the top-right corner of its top-right pixel. Pixel centres sit at
-    ``((col + 0.5) / W, 1 - (row + 0.5) / H)``; lookups beyond the outer centres clamp.
+    ``((col + 0.5) / W, 1 - (row + 0.5) / H)``; lookups beyond the outer centres clamp
+    (``wrap="clamp"``), or the map repeats or mirrors (``"repeat"``, ``"mirror"``: the texture
+    wrap modes, as Mitsuba's ``bitmap`` applies them).
     """
     height, width = values.shape
     uv = np.asarray(feather_uv, dtype=np.float64)
     cols = uv[:, 0] * width - 0.5
     rows = (1.0 - uv[:, 1]) * height - 0.5
-    return ndimage.map_coordinates(values, [rows, cols], order=1, mode="nearest").astype(np.float32)
+    mode = WRAP_MODES[wrap]
+    return ndimage.map_coordinates(values, [rows, cols], order=1, mode=mode).astype(np.float32)
 
 
 def sample_nearest(values: np.ndarray, feather_uv: np.ndarray) -> np.ndarray:

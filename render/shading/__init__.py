@@ -8,6 +8,7 @@
 * :mod:`.materialx` — MaterialX ``standard_surface`` / ``open_pbr_surface`` (approximated by
   ``principled``) and ``image`` / ``tiledimage`` nodes;
 * :mod:`.feather` — ``PavonineFeatherAPI`` materials;
+* :mod:`.displacement` — the displacement terminal (applied by :mod:`pavonine.render.displacement`);
 * :mod:`.spec` — what a mesh receives (:class:`MaterialSpec`), sidedness, opacity and emission.
 
 The surface is looked up in the render contexts ``mitsuba``, universal, then ``mtlx``; any other
@@ -54,6 +55,7 @@ def translate_material(
     material: UsdShade.Material, time: Usd.TimeCode, diag: Diagnostics
 ) -> MaterialSpec:
     """The :class:`MaterialSpec` of a bound USD material (feather, mitsuba, preview, or grey)."""
+    from pavonine.render.shading import displacement as displacement_terminal
     from pavonine.render.shading import materialx, mitsuba_context, preview_surface
 
     path = str(material.GetPath())
@@ -77,7 +79,9 @@ def translate_material(
             f"surface shader {shader_id or '(no info:id)'!r} is not supported; rendering grey diffuse",
         )
         return default_material()
-    _check_displacement(material, shader, diag)
+    fields["bsdf"], displacement = displacement_terminal.translate(
+        material, shader, fields["bsdf"], net
+    )
     if len(net.uv_names) > 1:
         diag.warn(
             path,
@@ -85,7 +89,9 @@ def translate_material(
             f"so all read {net.uv_names[0]}",
         )
     uv = net.uv_names[0] if net.uv_names else "st"
-    return MaterialSpec(path, uv_primvar=uv, primvars=tuple(net.primvars), **fields)
+    return MaterialSpec(
+        path, uv_primvar=uv, primvars=tuple(net.primvars), displacement=displacement, **fields
+    )
 
 
 def surface_shader(material: UsdShade.Material, diag: Diagnostics) -> UsdShade.Shader | None:
@@ -102,16 +108,3 @@ def surface_shader(material: UsdShade.Material, diag: Diagnostics) -> UsdShade.S
             f"only render contexts this renderer does not read ({', '.join(others)}) have a surface",
         )
     return None
-
-
-def _check_displacement(
-    material: UsdShade.Material, surface: UsdShade.Shader, diag: Diagnostics
-) -> None:
-    """A displacement terminal on another shader than the surface is not applied: warned."""
-    source = material.ComputeDisplacementSource(MITSUBA_CONTEXT)
-    shader = source[0] if isinstance(source, tuple) else source
-    if shader and shader.GetPrim().IsValid() and shader.GetPrim() != surface.GetPrim():
-        diag.warn(
-            str(material.GetPath()),
-            f"displacement shader {shader.GetPath()} is not applied (the surface is rendered undisplaced)",
-        )

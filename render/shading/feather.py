@@ -21,6 +21,7 @@ from __future__ import annotations
 import os
 from dataclasses import replace
 
+import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
@@ -116,7 +117,33 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
         two_sided=True,
         is_feather=True,
         primvars=tuple(net.primvars),
+        displacement=_displacement(material, maps.get("displacement"), diag),
     )
+
+
+def _displacement(material: UsdShade.Material, file: str | None, diag: Diagnostics):
+    """The displacement of a feather authored undisplaced (``pavonine:displacementHeight`` > 0):
+    its map, read raw, times the height; the BSDF keeps its bump map, as on a baked mesh."""
+    from pavonine.pipeline.maps.io import read_map
+    from pavonine.render.displacement import Displacement
+    from pavonine.schemas import authoring
+
+    try:
+        height = authoring.displacement_height(material)
+    except ParameterError as exc:
+        raise parameter_input_error(material.GetPrim(), exc) from None
+    if height <= 0.0:
+        return None
+    path = str(material.GetPath())
+    if not file:
+        diag.warn(path, f"{authoring.DISPLACEMENT_HEIGHT_ATTR} is set without a displacement map")
+        return None
+    try:
+        grey = read_map(file, authoring.MAP_ATTRS["displacement"])  # as convert reads it
+    except InputError as exc:
+        diag.warn(path, f"{exc}; the feather is rendered undisplaced")
+        return None
+    return Displacement(path, grey, np.eye(3), "clamp", height, keep_bump=True)
 
 
 def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> MaterialSpec:
@@ -133,7 +160,7 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
 
     core = dict(_feather_node(spec.bsdf))
     if carried(FEATHER_UV) or carried(LEGACY_PRIMVARS[FEATHER_UV]):
-        return replace(spec, key=f"{spec.key}#ribbon", bsdf=core)
+        return replace(spec, key=f"{spec.key}#ribbon", bsdf=core, displacement=None)
     lacking = [
         INPUT_PRIMVARS[name]
         for name in DATA_MAPS
@@ -147,7 +174,9 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
             "values",
         )
     core = {k: v for k, v in core.items() if k not in DATA_MAPS}
-    return replace(spec, key=f"{spec.key}#ribbon-no-uv", bsdf=core, uv_primvar="st")
+    return replace(
+        spec, key=f"{spec.key}#ribbon-no-uv", bsdf=core, uv_primvar="st", displacement=None
+    )
 
 
 def _feather_node(bsdf: dict) -> dict:

@@ -30,7 +30,8 @@ warned, naming it, when it is connected or set away from its default. Images (``
 ``ND_tiledimage_*``) become ``bitmap`` textures: the file through ``Ar`` (:mod:`.textures`), its
 ``colorSpace`` (``srgb_texture`` decoded, linear ones raw), the address modes, ``default`` when
 the file cannot be read, and ``texcoord`` from ``ND_texcoord_vector2`` / ``ND_geompropvalue_vector2``
-/ a ``UsdPrimvarReader_float2`` (``st`` when unconnected).
+/ a ``UsdPrimvarReader_float2`` (``st`` when unconnected), through ``ND_place2d_vector2`` (pivot,
+scale, rotate, offset, operationorder) when one sits in between.
 """
 
 from __future__ import annotations
@@ -179,7 +180,12 @@ def surface(shader: UsdShade.Shader, node_id: str, net: Network) -> dict[str, An
         emission = None
     translated = {getattr(layout, f) for f in Layout.__dataclass_fields__}
     for name, value in defaults.items():
-        if name not in translated and value is not None and net.differs(shader, name, value):
+        if name in translated:
+            continue
+        # inputs without a default value (normal, tangent: geometric properties) count when set
+        if value is None and not net.is_authored(shader, name):
+            continue
+        if value is None or net.differs(shader, name, value):
             net.warn(
                 where,
                 f"{name} is not translated to Mitsuba's principled BSDF (an approximation of "
@@ -332,6 +338,35 @@ def _tiling(shader: UsdShade.Shader, net: Network) -> np.ndarray:
     )
 
 
+def place2d(shader: UsdShade.Shader, net: Network) -> np.ndarray:
+    """``ND_place2d_vector2`` as a 3×3 matrix on uv, as its graph in MaterialX's
+    ``stdlib_ng.mtlx`` computes it: SRT (``operationorder`` 0) ``R((t − pivot) / scale) − offset
+    + pivot``, TRS (1) ``R(t − pivot − offset) / scale + pivot``; ``R`` turns by ``rotate``
+    degrees clockwise (``mx_rotate_vector2``)."""
+    where = str(shader.GetPath())
+    for name in ("pivot", "scale", "rotate", "offset", "operationorder"):
+        if net.source(shader.GetInput(name)) is not None:
+            net.warn(where, f"a connected {name} is not supported; using its value or default")
+
+    def pair(name: str, default: tuple[float, float]) -> np.ndarray:
+        return np.resize(np.asarray(net.constant(shader, name, default), dtype=float), 2)
+
+    pivot, offset = pair("pivot", (0.0, 0.0)), pair("offset", (0.0, 0.0))
+    scale = pair("scale", (1.0, 1.0))
+    scale = np.where(np.abs(scale) > 1e-12, scale, 1e-12)
+    angle = np.radians(float(net.constant(shader, "rotate", 0.0)))
+    c, s = np.cos(angle), np.sin(angle)
+
+    def move(v: np.ndarray) -> np.ndarray:
+        return np.array([[1.0, 0.0, v[0]], [0.0, 1.0, v[1]], [0.0, 0.0, 1.0]])
+
+    rotate = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    divide = np.diag([1.0 / scale[0], 1.0 / scale[1], 1.0])
+    if int(net.constant(shader, "operationorder", 0)) == 1:
+        return move(pivot) @ divide @ rotate @ move(-offset) @ move(-pivot)
+    return move(pivot) @ move(-offset) @ rotate @ divide @ move(-pivot)
+
+
 def _texcoord(shader: UsdShade.Shader, net: Network) -> tuple[str, np.ndarray]:
     """(uv primvar, transform) of an image's ``texcoord``; ``st`` when it is not connected."""
     source = net.source(shader.GetInput("texcoord"))
@@ -339,6 +374,9 @@ def _texcoord(shader: UsdShade.Shader, net: Network) -> tuple[str, np.ndarray]:
         return "st", np.eye(3)
     node, _ = source
     node_id = shader_identifier(node)
+    if node_id == "ND_place2d_vector2":
+        name, inner = _texcoord(node, net)
+        return name, place2d(node, net) @ inner
     if node_id == "ND_texcoord_vector2":
         return "st", np.eye(3)
     if node_id == "ND_geompropvalue_vector2" or node_id.startswith("UsdPrimvarReader_"):

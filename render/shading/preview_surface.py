@@ -20,8 +20,8 @@ emissiveColor          an ``area`` emitter on the mesh (textures included)
 opacity,               ``mask`` (presence / cut-out) or a blend with a thin dielectric
 opacityThreshold,      (transparent), see :mod:`.spec`
 opacityMode
-displacement           *not displaced*: a textured displacement becomes a ``bumpmap`` (shading only)
-                       and a constant non-zero one is ignored, each with a warning
+displacement           the geometry is displaced (through the material's displacement output):
+                       :mod:`.displacement` and :mod:`pavonine.render.displacement`
 occlusion              ignored with a warning when authored (a path tracer computes occlusion)
 =====================  =============================================================================
 
@@ -69,7 +69,6 @@ def preview_surface(shader: UsdShade.Shader, net: Network) -> dict[str, Any]:
         if net.differs(shader, "specularColor", (0.0, 0.0, 0.0)):
             net.warn(where, "specularColor is used only with useSpecularWorkflow = 1; ignored")
     bsdf = _normal_map(shader, bsdf, net)
-    bsdf = _displacement(shader, bsdf, net)
     if net.differs(shader, "occlusion", 1.0):
         net.warn(where, "occlusion is ignored: the path tracer computes occlusion from the scene")
     emission = net.value(shader, "emissiveColor", COLOR, (0.0, 0.0, 0.0))
@@ -156,25 +155,6 @@ def _normal_map(shader: UsdShade.Shader, bsdf: dict, net: Network) -> dict:
         net.warn(where, "normal is not read from a texture; the geometric normals are used")
         return bsdf
     return {"type": "normalmap", "normalmap": texture, "bsdf": bsdf}
-
-
-def _displacement(shader: UsdShade.Shader, bsdf: dict, net: Network) -> dict:
-    """Displacement is not applied to the geometry: textures shade as a bump map (warned)."""
-    where = str(shader.GetPath())
-    if net.source(shader.GetInput("displacement")) is None:
-        if net.differs(shader, "displacement", 0.0):
-            net.warn(where, "displacement is not applied (the surface is rendered undisplaced)")
-        return bsdf
-    height = net.value(shader, "displacement", FLOAT, 0.0)
-    if isinstance(height, dict) and height.get("type") == "bitmap":
-        net.warn(
-            where,
-            "displacement is not applied to the geometry; it is approximated by bump mapping "
-            "(shading normals only, silhouettes stay undisplaced)",
-        )
-        return {"type": "bumpmap", "height": height, "scale": 1.0, "bsdf": bsdf}
-    net.warn(where, "displacement is not applied (the surface is rendered undisplaced)")
-    return bsdf
 
 
 def _opacity(shader: UsdShade.Shader, net: Network) -> tuple[Any, str]:

@@ -51,6 +51,8 @@ class MaterialSpec:
     ior: float = 1.5
     emission: Any = None  # area-emitter radiance (rgb dict, texture dict, placeholder) or None
     primvars: tuple[str, ...] = ()  # primvars read per mesh (placeholders in bsdf/opacity/emission)
+    #: how the material displaces its meshes (:mod:`pavonine.render.displacement`), or ``None``
+    displacement: Any = None
 
     def primvars_for(self, prim: Usd.Prim) -> tuple[str, dict[str, str]]:
         """``(uv primvar, attributes)`` for one mesh: a feather primvar the mesh lacks under its
