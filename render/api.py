@@ -171,14 +171,15 @@ def render_products(
         meter = sensors.attach_meter(shapes, stage, job.camera, _sensor_dict(job), diag)
         if meter is None:  # warned: through the camera's lens instead
             prim = synced.cameras[job.camera]
-            job.sensor = camera_translator.lens_sensor(
+            job.sensor = camera_translator.translate_camera(
                 prim,
                 delegate.xforms.world(prim),
                 time_code,
                 job.size,
                 job.product.pixel_aspect,
                 job.product.conform,
-                diag,
+                Diagnostics(),  # its settings were read (and warned about) once already
+                lens_only=True,
             )
             scene_dict[f"sensor_{index}"] = _sensor_dict(job)
         else:

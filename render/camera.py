@@ -49,36 +49,23 @@ def translate_camera(
     pixel_aspect: float,
     conform: str,
     diag: Diagnostics,
+    lens_only: bool = False,
 ) -> Sensor:
     """A USD camera as a Mitsuba ``perspective``/``thinlens``/``orthographic`` sensor, or (hdmitsuba's
-    ``mitsuba:sensor:type``) an ``irradiancemeter`` to attach to a mesh (:mod:`.sensors`)."""
+    ``mitsuba:sensor:type``, unless ``lens_only``) an ``irradiancemeter`` to attach to a mesh
+    (:mod:`.sensors`); the film filter is hdmitsuba's ``pixel_filter`` setting."""
     from pavonine.render import sensors
 
     check_camera(prim, world_usd, time)
-    if sensors.sensor_type(prim, diag) == "irradiancemeter":
+    rfilter = sensors.pixel_filter(prim, diag)
+    if not lens_only and sensors.sensor_type(prim, diag) == "irradiancemeter":
         frame = to_mitsuba(_without_scale(world_usd)) @ TURN_Y
-        rfilter = sensors.pixel_filter(prim, diag)
         return Sensor({"type": "irradiancemeter"}, frame, str(prim.GetPath()), rfilter)
-    return lens_sensor(prim, world_usd, time, resolution, pixel_aspect, conform, diag)
-
-
-def lens_sensor(
-    prim: Usd.Prim,
-    world_usd: np.ndarray,
-    time: Usd.TimeCode,
-    resolution: tuple[int, int],
-    pixel_aspect: float,
-    conform: str,
-    diag: Diagnostics,
-) -> Sensor:
-    """The camera through its lens (its ``GfCamera``), with hdmitsuba's film filter."""
-    from pavonine.render import sensors
-
     camera = UsdGeom.Camera(prim).GetCamera(time)
     sensor = gf_camera_sensor(
         camera, world_usd, resolution, pixel_aspect, conform, diag, str(prim.GetPath())
     )
-    sensor.rfilter = sensors.pixel_filter(prim, diag)
+    sensor.rfilter = rfilter
     return sensor
 
 

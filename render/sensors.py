@@ -29,28 +29,27 @@ READ = {"Camera": (SENSOR_TYPE, PIXEL_FILTER), "Mesh": (ATTACHED,)}
 
 def sensor_type(prim: Usd.Prim, diag: Diagnostics) -> str:
     """The camera's ``mitsuba:sensor:type`` (``"perspective"`` when absent or unknown, warned)."""
-    kind = _string(prim, SENSOR_TYPE) or "perspective"
-    if kind not in SENSOR_TYPES:
-        diag.warn(
-            str(prim.GetPath()),
-            f"{SENSOR_TYPE} = {kind!r} (hdmitsuba's setting) is not supported (known: "
-            f"{', '.join(SENSOR_TYPES)}); rendered as a perspective camera",
-        )
-        return "perspective"
-    return kind
+    return _choice(prim, SENSOR_TYPE, SENSOR_TYPES, "rendered as a perspective camera", diag)
 
 
 def pixel_filter(prim: Usd.Prim, diag: Diagnostics) -> str:
     """The camera's film reconstruction filter (``"box"`` when absent or unknown, warned)."""
-    name = _string(prim, PIXEL_FILTER) or "box"
-    if name not in PIXEL_FILTERS:
-        diag.warn(
-            str(prim.GetPath()),
-            f"{PIXEL_FILTER} = {name!r} (hdmitsuba's setting) is not a Mitsuba filter (known: "
-            f"{', '.join(PIXEL_FILTERS)}); box used",
-        )
-        return "box"
-    return name
+    return _choice(prim, PIXEL_FILTER, PIXEL_FILTERS, "box used", diag)
+
+
+def _choice(prim: Usd.Prim, name: str, known: tuple[str, ...], instead: str, diag) -> str:
+    """A string setting that must be one of ``known`` (the first when absent; warned if another)."""
+    attr = prim.GetAttribute(name)
+    value = attr.Get() if attr and attr.HasAuthoredValue() else None
+    chosen = str(value) if value is not None else known[0]
+    if chosen in known:
+        return chosen
+    diag.warn(
+        str(prim.GetPath()),
+        f"{name} = {chosen!r} (hdmitsuba's setting) is not supported by Mitsuba here (known: "
+        f"{', '.join(known)}); {instead}",
+    )
+    return known[0]
 
 
 def metered_meshes(stage: Usd.Stage, camera: str) -> list[str]:
@@ -117,9 +116,3 @@ def _with_sensor(mesh, sensor) -> object:
             new[key] = old[key]
     new.update()
     return copy
-
-
-def _string(prim: Usd.Prim, name: str) -> str:
-    attr = prim.GetAttribute(name)
-    value = attr.Get() if attr and attr.HasAuthoredValue() else None
-    return str(value) if value is not None else ""
