@@ -184,7 +184,7 @@ def coverage_mask(stage_path: Path, camera: str | None, size: tuple[int, int]) -
     import mitsuba as mi
 
     from pavonine.render import camera as camera_translator
-    from pavonine.render.api import default_view, scene_objects
+    from pavonine.render.api import scene_objects
     from pavonine.render.delegate import StageDelegate, open_stage, render_time
     from pavonine.render.diagnostics import Diagnostics
     from pavonine.render.settings import read_render_settings
@@ -201,7 +201,9 @@ def coverage_mask(stage_path: Path, camera: str | None, size: tuple[int, int]) -
             prim, delegate.xforms.world(prim), time_code, size, 1.0, settings.conform, diag
         )
     else:
-        sensor = default_view(delegate, synced, "usd", size, (1.0, settings.conform), diag)
+        sensor = camera_translator.default_view(
+            stage, time_code, synced, "usd", size, (1.0, settings.conform), diag
+        )
     film = {"type": "hdrfilm", "width": size[0], "height": size[1], "rfilter": {"type": "box"}}
     scene_dict = {
         "type": "scene",

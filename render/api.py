@@ -34,12 +34,7 @@ from pavonine.render.imageio import write_exr, write_png
 from pavonine.render.integrator_settings import DEFAULT_SPP, MAX_DEPTH_LIMIT, check_variant
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
 from pavonine.render.passes import render_passes
-from pavonine.render.settings import (
-    DEFAULT_RESOLUTION,
-    RENDERED_PURPOSES,
-    ProductSpec,
-    read_render_settings,
-)
+from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
 
 __all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
 #: the view of a stage without a camera (see :func:`render_products`)
@@ -112,8 +107,8 @@ def render_products(
     ``resolution`` and ``camera`` override every product's; a stage without settings renders one
     beauty image. A stage without a camera is seen through USD's default view (``framing="usd"``:
     usdrecord's camera, :func:`.camera.usd_view_camera`) or Pavonine's ``"portrait"`` framing of a
-    flat asset (:func:`.camera.portrait_camera`). ``spp`` defaults to the settings' ``mitsuba:sample_count``, else
-    :data:`DEFAULT_SPP`; ``max_depth`` (-1: no limit) overrides the settings' integrator
+    flat asset (:func:`.camera.portrait_camera`); see :func:`.camera.default_view`. ``spp``
+    defaults to the settings' ``mitsuba:sample_count``, else :data:`DEFAULT_SPP`; ``max_depth`` (-1: no limit) overrides the settings' integrator
     (:mod:`.integrator_settings`). Warnings are shared by all results. ``limits``
     (:mod:`.limits`) are checked before the stage is translated: image sizes and ``spp`` first,
     instance counts as instancers are met. An image with NaN or infinite pixels is an
@@ -367,40 +362,10 @@ def _job(
             sensor.sensor["type"] = "perspective"
             del sensor.sensor["aperture_radius"], sensor.sensor["focus_distance"]
     else:
-        sensor = default_view(
-            delegate,
-            synced,
-            framing,
-            (width, height),
-            (product.pixel_aspect, product.conform),
-            diag,
-        )
+        view = (framing, (width, height), (product.pixel_aspect, product.conform))
+        sensor = camera_translator.default_view(delegate.stage, delegate.time, synced, *view, diag)
     plan = aov_layers.plan(product, diag)
     return _Job(product, plan, (width, height), film_width, camera_path, sensor)
-
-
-def default_view(
-    delegate: StageDelegate,
-    synced,
-    framing: str,
-    resolution: tuple[int, int],
-    aspect: tuple[float, str],
-    diag: Diagnostics,
-) -> camera_translator.Sensor:
-    """The sensor of a stage without a camera: USD's default view of the stage's bounds (as
-    usdrecord computes them), or Pavonine's portrait of the built geometry. ``aspect``: the
-    product's pixel aspect ratio and aspect-ratio conform policy."""
-    fallback = (np.full(3, -1.0), np.full(3, 1.0))
-    if framing == "portrait":
-        return camera_translator.portrait_camera(synced.bounds or fallback, synced.up_axis)
-    bounds = camera_translator.stage_bounds(delegate.stage, delegate.time, RENDERED_PURPOSES)
-    return camera_translator.usd_view_camera(
-        bounds or synced.bounds or fallback,
-        synced.up_axis,
-        resolution,
-        *aspect,
-        diag,
-    )
 
 
 def _finish_aovs(job: _Job, images: dict[str, np.ndarray]) -> None:

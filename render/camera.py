@@ -227,6 +227,27 @@ def stage_bounds(stage: Usd.Stage, time: Usd.TimeCode, purposes: tuple[str, ...]
     return np.array(box.GetMin(), dtype=np.float64), np.array(box.GetMax(), dtype=np.float64)
 
 
+def default_view(
+    stage: Usd.Stage,
+    time: Usd.TimeCode,
+    synced,
+    framing: str,
+    resolution: tuple[int, int],
+    aspect: tuple[float, str],
+    diag: Diagnostics,
+) -> Sensor:
+    """The sensor of a stage without a camera: USD's default view of the stage's bounds (as
+    usdrecord computes them, else the ``synced`` scene's), or Pavonine's ``"portrait"`` of the
+    built geometry. ``aspect``: the product's pixel aspect ratio and conform policy."""
+    from pavonine.render.settings import RENDERED_PURPOSES
+
+    fallback = (np.full(3, -1.0), np.full(3, 1.0))
+    if framing == "portrait":
+        return portrait_camera(synced.bounds or fallback, synced.up_axis)
+    bounds = stage_bounds(stage, time, RENDERED_PURPOSES) or synced.bounds or fallback
+    return usd_view_camera(bounds, synced.up_axis, resolution, *aspect, diag)
+
+
 def portrait_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> Sensor:
     """Pavonine's framing of a flat asset: seen face-on along its thin axis, long axis up (any other
     asset from the front, 20° above); a 30° field of view on the image's smaller side."""

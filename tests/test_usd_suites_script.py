@@ -23,7 +23,7 @@ def suites():
 def test_stages_without_camera_use_the_renderer_s_default_view(suites):
     """The script has no framing camera of its own: the renderer's is usdrecord's."""
     source = SCRIPT.read_text()
-    assert "default_view(" in source and "usd_view_resolution(" in source
+    assert "camera_translator.default_view(" in source and "usd_view_resolution(" in source
     assert not hasattr(suites, "usdrecord_camera_matrix")
 
 
