@@ -198,7 +198,14 @@ def coverage_mask(stage_path: Path, camera: str | None, size: tuple[int, int]) -
     if camera is not None:
         prim = synced.cameras[camera]
         sensor = camera_translator.translate_camera(
-            prim, delegate.xforms.world(prim), time_code, size, 1.0, settings.conform, diag
+            prim,
+            delegate.xforms.world(prim),
+            time_code,
+            size,
+            1.0,
+            settings.conform,
+            diag,
+            lens_only=True,  # an irradiance meter's geometry is seen through its camera's lens
         )
     else:
         sensor = camera_translator.default_view(
@@ -267,10 +274,15 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     result["coverage"] = float((covered > 0).mean())
     mask = covered > 0.5
     seen = covered > 0
-    # brightness of what is seen, per unit coverage (objects smaller than a pixel count too)
-    result["lit_luminance"] = (
-        float(np.percentile(luminance[seen] / covered[seen], 90)) if seen.any() else 0.0
-    )
+    # brightness of what is seen, per unit coverage (objects smaller than a pixel count too); an
+    # irradiance meter's pixels are each one estimate of the mesh's irradiance: their mean
+    result["meter"] = "irradiancemeter" in rendered.metadata.get("sensor", "")
+    if result["meter"]:
+        result["lit_luminance"] = float(luminance.mean())
+    else:
+        result["lit_luminance"] = (
+            float(np.percentile(luminance[seen] / covered[seen], 90)) if seen.any() else 0.0
+        )
     if facts["texture_inputs"] and mask.any():
         blank = write_wrapper(stage_path, stage, facts, out, blank_textures=True)
         plain = render_stage(blank, spp=spp, resolution=resolution, camera=camera, progress=False)

@@ -224,6 +224,7 @@ def render_products(
                 "seed": int(seed),
                 "resolution": [int(width), int(height)],
                 "camera": job.camera or "(framing camera)",
+                "sensor": job.sensor.sensor["type"],  # irradiancemeter: a meter's estimates
                 "time": _time_label(time_code),
                 "passes": int(passes),
                 "colorspace": "lin_rec709_scene",
