@@ -13,7 +13,9 @@ stage and the run goes on. Per stage the worker measures, and the parent checks:
 * ``coverage``: geometry is seen where the stage has geometry (fraction of pixels whose camera ray
   hits a shape, from Mitsuba's ``aov`` depth), none where it has none;
 * ``lit``: where geometry is seen, it is not black (the stage's lights, or the default sun and sky,
-  reach it);
+  reach it); through an irradiance meter (hdmitsuba's ``mitsuba:sensor:type``), whose pixels are
+  each an estimate of the irradiance its mesh receives, their mean is not 0 (its geometry's
+  coverage is then seen through the camera's lens);
 * ``texture``: where a shader names an image file that exists and OpenImageIO reads, the render
   differs from the same stage with those files blanked (so the texture really reaches the image);
 * ``silhouette``: where the suite ships a ``usdrecord`` screenshot (whose framing camera is known:
