@@ -186,3 +186,43 @@ def test_angle_scale_moves_the_step_and_unnormalised_candela_scale_the_light(tmp
     # θ_ies = θ / 0.5: the file's 30° step is met at 15° off the axis
     assert math.degrees(math.atan(edge / HEIGHT)) == pytest.approx(STEP_DEG / 2, abs=1.0)
     assert level == pytest.approx(STEP_CD, rel=0.02)  # not normalised: × the candela values
+
+
+@pytest.mark.render
+def test_the_profile_point_light_starts_light_paths_as_it_ends_them():
+    """``pavonine_ies_point``'s ``sample_ray`` (light tracing) against its ``sample_direction``
+    (path tracing): Mitsuba's ``ptracer`` and ``path`` see the same floor under a 30° step."""
+    import mitsuba as mi
+
+    from pavonine.backend import select_variant
+    from pavonine.render.lights import ies_emitter
+    from pavonine.render.lights.common import bitmap, transform
+
+    select_variant(None)
+    ies_emitter.register()
+    theta, _ = ies.texel_angles(720, 1)
+    table = np.where(theta < math.radians(STEP_DEG), 1.0, 0.0)
+    light = {
+        "type": ies_emitter.POINT_PLUGIN,
+        "inner": {"type": "point", "position": [0, 0, 1], "intensity": 1.0},
+        "light_to_world": transform(np.eye(4)),
+        "profile": bitmap(table[..., None]),
+    }
+    means = []
+    for integrator in ("path", "ptracer"):
+        scene = mi.load_dict(
+            {
+                "type": "scene",
+                "integrator": {"type": integrator, "max_depth": 2},
+                "sensor": {
+                    "type": "perspective",
+                    "fov": 60,
+                    "to_world": mi.ScalarTransform4f().look_at([0, 0, 4], [0, 0, 0], [0, 1, 0]),
+                    "film": {"type": "hdrfilm", "width": 32, "height": 32},
+                },
+                "floor": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale(3)},
+                "light": light,
+            }
+        )
+        means.append(float(np.mean(mi.render(scene, spp=64))))
+    assert means[1] == pytest.approx(means[0], rel=0.05)

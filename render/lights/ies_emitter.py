@@ -14,7 +14,9 @@ light's directions (:func:`pavonine.render.lights.ies.profile_table`; θ from th
   by a profile (the whole light's axis, not each point's normal).
 
 Both sample positions and directions as the emitters they extend (the profile is not importance
-sampled): unbiased, noisier where the profile is narrow.
+sampled): unbiased, noisier where the profile is narrow. The point emitter also starts light paths
+(``sample_ray``: Mitsuba's ``ptracer`` and ``path`` agree on a floor it lights, 0.006355 against
+0.006276 at 32², 64 spp); the area emitter does not (Pavonine's integrators never ask it to).
 """
 
 from __future__ import annotations
@@ -72,6 +74,14 @@ def _factor(texture, axes, direction):
     phi = dr.select(phi < 0, phi + 2.0 * math.pi, phi)
     uv = mi.Point2f(phi / (2.0 * math.pi), theta / math.pi)
     return texture.eval(uv)[0]
+
+
+def _shifted(sample):
+    """Mitsuba's ``sample_shifted`` (one sample → a wavelength sample per channel), spectral only;
+    RGB variants draw no wavelengths."""
+    import mitsuba as mi
+
+    return mi.sample_shifted(sample) if mi.is_spectral else mi.Color0f()
 
 
 def _point_class() -> type:
@@ -167,17 +177,10 @@ def _area_class() -> type:
             return dr.select(active, self._shaped(si, -ds.d, active), 0.0)
 
         def sample_ray(self, time, wavelength_sample, sample2, sample3, active=True):
-            ps = self.get_shape().sample_position(time, sample2, active)
-            si = mi.SurfaceInteraction3f(ps, dr.zeros(mi.Color0f))
-            wavelengths, weight = self.radiance.sample_spectrum(
-                si, mi.math.sample_shifted(wavelength_sample), active
+            raise NotImplementedError(
+                f"{AREA_PLUGIN}: light tracing (Mitsuba's ptracer) is not supported; Pavonine "
+                "renders with its path tracer, which samples emitters by direction"
             )
-            local = mi.warp.square_to_cosine_hemisphere(sample3)
-            direction = mi.Frame3f(ps.n).to_world(local)
-            si.wavelengths = wavelengths
-            factor = _factor(self.texture, self.axes, direction)
-            ray = mi.Ray3f(ps.p, direction, time, wavelengths)
-            return ray, weight * factor * (math.pi / ps.pdf)
 
         def sample_position(self, time, sample, active=True):
             return self.get_shape().sample_position(time, sample, active)
@@ -186,7 +189,7 @@ def _area_class() -> type:
             return self.get_shape().pdf_position(ps, active)
 
         def sample_wavelengths(self, si, sample, active=True):
-            return self.radiance.sample_spectrum(si, mi.math.sample_shifted(sample), active)
+            return self.radiance.sample_spectrum(si, _shifted(sample), active)
 
         def bbox(self):
             return self.get_shape().bbox()
