@@ -13,7 +13,9 @@ stage and the run goes on. Per stage the worker measures, and the parent checks:
 * ``coverage``: geometry is seen where the stage has geometry (fraction of pixels whose camera ray
   hits a shape, from Mitsuba's ``aov`` depth), none where it has none;
 * ``lit``: where geometry is seen, it is not black (the stage's lights, or the default sun and sky,
-  reach it);
+  reach it); through an irradiance meter (hdmitsuba's ``mitsuba:sensor:type``), whose pixels are
+  each an estimate of the irradiance its mesh receives, their mean is not 0 (its geometry's
+  coverage is then seen through the camera's lens);
 * ``texture``: where a shader names an image file that exists and OpenImageIO reads, the render
   differs from the same stage with those files blanked (so the texture really reaches the image);
 * ``silhouette``: where the suite ships a ``usdrecord`` screenshot (whose framing camera is known:
@@ -24,8 +26,9 @@ stage and the run goes on. Per stage the worker measures, and the parent checks:
 * ``supported``: the delegate did not warn that anything in the stage is "not supported" (bad
   data that is warned about and rendered around is fine: that is the expected behaviour).
 
-Stages without a camera are rendered through that same ``usdrecord`` framing camera (added in a
-wrapper layer that sublayers the stage), so that silhouettes are comparable. The suites are read,
+Stages without a camera are rendered through the renderer's own default view, which is that same
+``usdrecord`` framing camera (``pavonine.render.camera.usd_view_camera``), at usdrecord's aspect
+ratio, so that silhouettes are comparable. The suites are read,
 never modified, and never copied into the repository.
 
 Prints a table and the pass rate (overall and per suite); writes ``report.json``, one PNG per stage
@@ -48,9 +51,6 @@ import numpy as np
 STAGE_SUFFIXES = {".usd", ".usda", ".usdc", ".usdz"}
 SCREENSHOT_PATTERNS = ("screenshots/{stem}_usdrecord_22.08.png",)
 # GfCamera's defaults (the camera usdrecord frames a stage with): 50 mm lens, 35 mm academy aperture
-GF_FOCAL_LENGTH, GF_H_APERTURE, GF_V_APERTURE = 50.0, 20.955, 15.2908
-GF_CLIPPING_RANGE = (1.0, 1.0e6)
-FRAMING_CAMERA = "/PavonineSuiteFramingCamera"
 SILHOUETTE_IOU = 0.85
 INSIDE_CAGE = 0.95
 LIT_LUMINANCE = 0.01
@@ -154,34 +154,12 @@ def readable_image(resolved: str) -> bool:
     return True
 
 
-def usdrecord_camera_matrix(bounds: list, up_axis: str) -> np.ndarray:
-    """``UsdAppUtilsFrameRecorder``'s camera for a stage without one (USD row-vector layout).
-
-    From usdAppUtils/frameRecorder.cpp (``_ComputeCameraToFrameStage``): the default ``GfCamera``,
-    its focal plane through the bounds' centre at the distance where the bounds' half diagonal
-    (in the image plane) fills half the horizontal field of view, backed up by half the depth.
-    """
-    lo, hi = np.asarray(bounds[0]), np.asarray(bounds[1])
-    centre, dim = (lo + hi) / 2.0, hi - lo
-    corner = dim[[0, 1]] / 2 if up_axis == "Y" else dim[[0, 2]] / 2
-    half_fov = math.atan(GF_H_APERTURE / (2.0 * GF_FOCAL_LENGTH))
-    distance = float(np.linalg.norm(corner)) / math.tan(half_fov)
-    distance += dim[2] / 2 if up_axis == "Y" else dim[1] / 2
-    matrix = np.eye(4)
-    if up_axis == "Y":
-        matrix[3, :3] = centre + np.array([0.0, 0.0, distance])
-    else:
-        matrix[:3, :3] = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]  # 90° about X (row-vector layout)
-        matrix[3, :3] = centre + np.array([0.0, -distance, 0.0])
-    return matrix
-
-
 def write_wrapper(
     stage_path: Path, stage, facts: dict, out: Path, blank_textures: bool
 ) -> tuple[Path, str | None]:
-    """A layer that sublayers the stage, adds the usdrecord framing camera if the stage has no
-    camera, and (``blank_textures``) blanks every image file bound to a shader input."""
-    from pxr import Gf, Sdf, Usd, UsdGeom
+    """A layer that sublayers the stage and (``blank_textures``) blanks every image file bound to a
+    shader input."""
+    from pxr import Sdf, Usd
 
     layer_path = out / ("wrapper_blank.usda" if blank_textures else "wrapper.usda")
     wrapper = Usd.Stage.CreateNew(str(layer_path))
@@ -190,16 +168,6 @@ def write_wrapper(
     for key in LAYER_METADATA:
         if root.pseudoRoot.HasInfo(key):
             wrapper.GetRootLayer().pseudoRoot.SetInfo(key, root.pseudoRoot.GetInfo(key))
-    camera = None
-    if not facts["cameras"] and facts["bounds"]:
-        cam = UsdGeom.Camera.Define(wrapper, FRAMING_CAMERA)
-        cam.CreateFocalLengthAttr(GF_FOCAL_LENGTH)
-        cam.CreateHorizontalApertureAttr(GF_H_APERTURE)
-        cam.CreateVerticalApertureAttr(GF_V_APERTURE)
-        matrix = usdrecord_camera_matrix(facts["bounds"], facts["up_axis"])
-        cam.AddTransformOp().Set(Gf.Matrix4d(matrix.tolist()))
-        cam.CreateClippingRangeAttr(Gf.Vec2f(*GF_CLIPPING_RANGE))
-        camera = FRAMING_CAMERA
     if blank_textures:
         for attr_path in facts["texture_inputs"]:
             path = Sdf.Path(attr_path)
@@ -207,7 +175,7 @@ def write_wrapper(
             attr = over.CreateAttribute(path.name, Sdf.ValueTypeNames.Asset)
             attr.Set(Sdf.AssetPath(""))
     wrapper.GetRootLayer().Save()
-    return layer_path, camera
+    return layer_path
 
 
 # -- the worker: one stage ----------------------------------------------------------------------
@@ -233,11 +201,19 @@ def coverage_mask(stage_path: Path, camera: str | None, size: tuple[int, int]) -
     if camera is not None:
         prim = synced.cameras[camera]
         sensor = camera_translator.translate_camera(
-            prim, delegate.xforms.world(prim), time_code, size, 1.0, settings.conform, diag
+            prim,
+            delegate.xforms.world(prim),
+            time_code,
+            size,
+            1.0,
+            settings.conform,
+            diag,
+            lens_only=True,  # an irradiance meter's geometry is seen through its camera's lens
         )
     else:
-        bounds = synced.bounds or (np.full(3, -1.0), np.full(3, 1.0))
-        sensor = camera_translator.framing_camera(bounds, synced.up_axis)
+        sensor = camera_translator.default_view(
+            stage, time_code, synced, "usd", size, (1.0, settings.conform), diag
+        )
     film = {"type": "hdrfilm", "width": size[0], "height": size[1], "rfilter": {"type": "box"}}
     shapes = scene_objects(synced.shapes, {})
     view = displacement.view_of(sensor.sensor, sensor.to_world, size)
@@ -260,6 +236,7 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
 
     from pavonine.pipeline.errors import InputError
     from pavonine.render.api import render_stage
+    from pavonine.render.camera import usd_view_resolution
     from pavonine.render.diagnostics import Diagnostics, StageWarning
     from pavonine.render.imageio import write_png
     from pavonine.render.settings import read_render_settings
@@ -278,11 +255,12 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     facts = describe(stage)
     result.update(facts)
     settings = read_render_settings(stage, Diagnostics())
-    wrapper, camera = write_wrapper(stage_path, stage, facts, out, blank_textures=False)
-    if camera is None and facts["cameras"]:
+    wrapper = write_wrapper(stage_path, stage, facts, out, blank_textures=False)
+    camera = None
+    if facts["cameras"]:
         camera = settings.camera if settings.camera in facts["cameras"] else facts["cameras"][0]
-    if camera == FRAMING_CAMERA:
-        resolution = (size, max(1, int(size / (GF_H_APERTURE / GF_V_APERTURE))))
+    if camera is None:  # the renderer's default view: usdrecord's camera, at its aspect ratio
+        resolution = usd_view_resolution(size)
     elif settings.resolution:
         w, h = settings.resolution
         resolution = (size, max(1, round(size * h / w)))
@@ -302,17 +280,22 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     result["coverage"] = float((covered > 0).mean())
     mask = covered > 0.5
     seen = covered > 0
-    # brightness of what is seen, per unit coverage (objects smaller than a pixel count too)
-    result["lit_luminance"] = (
-        float(np.percentile(luminance[seen] / covered[seen], 90)) if seen.any() else 0.0
-    )
+    # brightness of what is seen, per unit coverage (objects smaller than a pixel count too); an
+    # irradiance meter's pixels are each one estimate of the mesh's irradiance: their mean
+    result["meter"] = "irradiancemeter" in rendered.metadata.get("sensor", "")
+    if result["meter"]:
+        result["lit_luminance"] = float(luminance.mean())
+    else:
+        result["lit_luminance"] = (
+            float(np.percentile(luminance[seen] / covered[seen], 90)) if seen.any() else 0.0
+        )
     if facts["texture_inputs"] and mask.any():
-        blank, _ = write_wrapper(stage_path, stage, facts, out, blank_textures=True)
+        blank = write_wrapper(stage_path, stage, facts, out, blank_textures=True)
         plain = render_stage(blank, spp=spp, resolution=resolution, camera=camera, progress=False)
         diff = np.abs(np.nan_to_num(plain.rgb.astype(np.float64)) - rgb).mean(axis=2)
         result["texture_difference"] = float(diff[mask].mean() / max(luminance[mask].mean(), 1e-3))
     screenshot = reference_screenshot(stage_path)
-    if screenshot is not None and camera == FRAMING_CAMERA:
+    if screenshot is not None and camera is None:
         result["screenshot"] = str(screenshot)
         agreement = silhouette_agreement(covered, screenshot)
         result["silhouette_iou"], result["inside_reference"], result["reference_coverage"] = (

@@ -27,7 +27,7 @@ from pavonine.backend import select_variant
 from pavonine.pipeline.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
-from pavonine.render import displacement, instance_primvars, lights
+from pavonine.render import displacement, instance_primvars, lights, sensors
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
@@ -37,6 +37,8 @@ from pavonine.render.passes import render_passes
 from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
 
 __all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
+#: the view of a stage without a camera (see :func:`render_products`)
+FRAMINGS = ("usd", "portrait")
 
 
 @dataclass
@@ -77,7 +79,7 @@ def render_stage(
     """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
 
     ``options`` are :func:`render_products`' (``spp``, ``max_depth``, ``resolution``, ``seed``,
-    ``camera``, ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
+    ``camera``, ``framing``, ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
     """
     chosen = [product] if product else None
     return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
@@ -91,6 +93,7 @@ def render_products(
     resolution: tuple[int, int] | None = None,
     seed: int = 0,
     camera: str | None = None,
+    framing: str = "usd",
     time: float | None = None,
     variant: str | None = None,
     moments: bool = False,
@@ -102,8 +105,10 @@ def render_products(
     """Render every product of the stage's render settings (or the ones at ``products``).
 
     ``resolution`` and ``camera`` override every product's; a stage without settings renders one
-    beauty image. ``spp`` defaults to the settings' ``mitsuba:sample_count``, else
-    :data:`DEFAULT_SPP`; ``max_depth`` (-1: no limit) overrides the settings' integrator
+    beauty image. A stage without a camera is seen through USD's default view (``framing="usd"``:
+    usdrecord's camera, :func:`.camera.usd_view_camera`) or Pavonine's ``"portrait"`` framing of a
+    flat asset (:func:`.camera.portrait_camera`); see :func:`.camera.default_view`. ``spp``
+    defaults to the settings' ``mitsuba:sample_count``, else :data:`DEFAULT_SPP`; ``max_depth`` (-1: no limit) overrides the settings' integrator
     (:mod:`.integrator_settings`). Warnings are shared by all results. ``limits``
     (:mod:`.limits`) are checked before the stage is translated: image sizes and ``spp`` first,
     instance counts as instancers are met. An image with NaN or infinite pixels is an
@@ -115,6 +120,8 @@ def render_products(
         raise InputError(
             "max_depth", f"must be -1 (no limit) or 0 to {MAX_DEPTH_LIMIT:,}, got {max_depth}"
         )
+    if framing not in FRAMINGS:
+        raise InputError("framing", f"must be one of {', '.join(FRAMINGS)}, got {framing!r}")
     if resolution is not None:
         if len(resolution) != 2:
             raise InputError("resolution", f"must be two positive integers, got {resolution}")
@@ -141,7 +148,7 @@ def render_products(
     if synced.bounds is None:
         diag.warn(str(stage_path), "the stage has no renderable geometry")
     jobs = [
-        _job(p, delegate, synced, camera, resolution, settings.path, time_code, diag)
+        _job(p, delegate, synced, (camera, framing), resolution, settings.path, time_code, diag)
         for p in chosen
     ]
     emitters = dict(synced.emitters)
@@ -151,12 +158,32 @@ def render_products(
         emitters = lights.default_lights(jobs[0].sensor.to_world, up, center, radius)
 
     scene_dict: dict[str, Any] = {"type": "scene"}
+    shapes = dict(synced.shapes)
     for index, job in enumerate(jobs):
-        scene_dict[f"sensor_{index}"] = _sensor_dict(job)
-    scene_dict.update(scene_objects(synced.shapes, emitters))
+        if job.sensor.sensor["type"] != "irradiancemeter":
+            scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+            continue
+        meter = sensors.attach_meter(shapes, stage, job.camera, _sensor_dict(job), diag)
+        if meter is None:  # warned: through the camera's lens instead
+            prim = synced.cameras[job.camera]
+            job.sensor = camera_translator.translate_camera(
+                prim,
+                delegate.xforms.world(prim),
+                time_code,
+                job.size,
+                job.product.pixel_aspect,
+                job.product.conform,
+                Diagnostics(),  # its settings were read (and warned about) once already
+                lens_only=True,
+            )
+            scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+        else:
+            meter.set_id(f"sensor_{index}")
+    scene_dict.update(scene_objects(shapes, emitters))
     views = [
         displacement.view_of(j.sensor.sensor, j.sensor.to_world, (j.film_width, j.size[1]))
         for j in jobs
+        if j.sensor.sensor["type"] != "irradiancemeter"
     ]
     displacement.resolve(scene_dict, views, synced.bounds, diag)
     gc.collect()  # see passes.render_pass
@@ -182,7 +209,7 @@ def render_products(
             integrator = mi.load_dict(job.plan.integrator(path_tracer))
             image, variance, passes = render_passes(
                 scene,
-                index,
+                [s.id() for s in scene.sensors()].index(f"sensor_{index}"),
                 integrator,
                 spp,
                 seed,
@@ -203,6 +230,7 @@ def render_products(
                 "seed": int(seed),
                 "resolution": [int(width), int(height)],
                 "camera": job.camera or "(framing camera)",
+                "sensor": job.sensor.sensor["type"],  # irradiancemeter: a meter's estimates
                 "time": _time_label(time_code),
                 "passes": int(passes),
                 "colorspace": "lin_rec709_scene",
@@ -300,13 +328,15 @@ def _job(
     product: ProductSpec,
     delegate: StageDelegate,
     synced,
-    camera: str | None,
+    view: tuple[str | None, str],
     resolution: tuple[int, int] | None,
     settings_path: str | None,
     time_code,
     diag: Diagnostics,
 ) -> _Job:
-    """The sensor and layers of one product."""
+    """The sensor and layers of one product (``view``: the camera asked for, and the framing of a
+    stage without one)."""
+    camera, framing = view
     width, height = resolution or product.resolution or DEFAULT_RESOLUTION
     film_width = max(1, round(width * product.pixel_aspect))  # Mitsuba's pixels are square
     camera_path = camera or product.camera
@@ -339,8 +369,8 @@ def _job(
             sensor.sensor["type"] = "perspective"
             del sensor.sensor["aperture_radius"], sensor.sensor["focus_distance"]
     else:
-        bounds = synced.bounds or (np.full(3, -1.0), np.full(3, 1.0))
-        sensor = camera_translator.framing_camera(bounds, synced.up_axis)
+        view = (framing, (width, height), (product.pixel_aspect, product.conform))
+        sensor = camera_translator.default_view(delegate.stage, delegate.time, synced, *view, diag)
     plan = aov_layers.plan(product, diag)
     return _Job(product, plan, (width, height), film_width, camera_path, sensor)
 
@@ -368,7 +398,7 @@ def _sensor_dict(job: _Job) -> dict:
             "width": int(job.film_width),
             "height": int(job.size[1]),
             "pixel_format": "rgba" if job.plan.alpha else "rgb",
-            "rfilter": {"type": "box"},
+            "rfilter": {"type": job.sensor.rfilter},
         },
         "sampler": {"type": "independent"},
     }

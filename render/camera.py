@@ -1,4 +1,4 @@
-"""``UsdGeom.Camera`` → Mitsuba sensors, and a framing camera for stages without one.
+"""``UsdGeom.Camera`` → Mitsuba sensors, and USD's default view for stages without one.
 
 Follows ``GfCamera``: focal length and apertures in tenths of a scene unit (mm when the scene unit
 is cm), aperture offsets shift the view window, ``clippingRange`` → near/far clip, ``fStop`` and
@@ -8,6 +8,11 @@ The aperture is conformed to the image's aspect ratio by ``aspectRatioConformPol
 
 USD cameras look down their local −Z with +Y up; Mitsuba's look down +Z with +X to the left, so
 the camera frame is turned 180° about Y.
+
+A stage without a camera is seen the way USD's own tools see it (:func:`usd_view_camera`:
+``usdrecord``'s ``UsdAppUtilsFrameRecorder`` and usdview's free camera), so that images can be set
+beside theirs; :func:`portrait_camera` is Pavonine's framing of a flat asset (a feather) face-on,
+long axis up, chosen explicitly (``framing="portrait"``).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ class Sensor:
     sensor: dict
     to_world: np.ndarray
     path: str | None
+    rfilter: str = "box"  # the film's reconstruction filter (hdmitsuba's pixel_filter setting)
 
 
 def translate_camera(
@@ -43,11 +49,37 @@ def translate_camera(
     pixel_aspect: float,
     conform: str,
     diag: Diagnostics,
+    lens_only: bool = False,
 ) -> Sensor:
-    """A USD camera as a Mitsuba ``perspective``/``thinlens``/``orthographic`` sensor."""
-    where = str(prim.GetPath())
+    """A USD camera as a Mitsuba ``perspective``/``thinlens``/``orthographic`` sensor, or (hdmitsuba's
+    ``mitsuba:sensor:type``, unless ``lens_only``) an ``irradiancemeter`` to attach to a mesh
+    (:mod:`.sensors`); the film filter is hdmitsuba's ``pixel_filter`` setting."""
+    from pavonine.render import sensors
+
     check_camera(prim, world_usd, time)
+    rfilter = sensors.pixel_filter(prim, diag)
+    if not lens_only and sensors.sensor_type(prim, diag) == "irradiancemeter":
+        frame = to_mitsuba(_without_scale(world_usd)) @ TURN_Y
+        return Sensor({"type": "irradiancemeter"}, frame, str(prim.GetPath()), rfilter)
     camera = UsdGeom.Camera(prim).GetCamera(time)
+    sensor = gf_camera_sensor(
+        camera, world_usd, resolution, pixel_aspect, conform, diag, str(prim.GetPath())
+    )
+    sensor.rfilter = rfilter
+    return sensor
+
+
+def gf_camera_sensor(
+    camera: Gf.Camera,
+    world_usd: np.ndarray,
+    resolution: tuple[int, int],
+    pixel_aspect: float,
+    conform: str,
+    diag: Diagnostics,
+    where: str | None,
+) -> Sensor:
+    """A ``GfCamera`` placed by ``world_usd`` (USD row-vector layout) as a Mitsuba sensor."""
+    label = where or "(USD default view)"
     width, height = resolution
     image_aspect = width * pixel_aspect / height
     ha, va = camera.horizontalAperture, camera.verticalAperture
@@ -60,8 +92,8 @@ def translate_camera(
                 ("verticalAperture", va),
             )
         )
-        raise ValueError(f"{where}: {lens}: focalLength and apertures must be positive")
-    fit_horizontal = _fits_horizontally(ha / va, image_aspect, conform, where, diag)
+        raise ValueError(f"{label}: {lens}: focalLength and apertures must be positive")
+    fit_horizontal = _fits_horizontally(ha / va, image_aspect, conform, label, diag)
     window_w = ha if fit_horizontal else va * image_aspect
     window_h = ha / image_aspect if fit_horizontal else va
     frame = to_mitsuba(_without_scale(world_usd)) @ TURN_Y
@@ -89,7 +121,7 @@ def translate_camera(
         sensor["focus_distance"] = float(camera.focusDistance)
         for key in ("principal_point_offset_x", "principal_point_offset_y"):
             if abs(sensor.pop(key)) > 1e-9:
-                diag.warn(where, "aperture offsets are ignored with depth of field (thinlens)")
+                diag.warn(label, "aperture offsets are ignored with depth of field (thinlens)")
     return Sensor(sensor, to_world, where)
 
 
@@ -137,8 +169,88 @@ def check_camera(prim: Usd.Prim, world_usd: np.ndarray, time: Usd.TimeCode) -> N
         )
 
 
-def framing_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> Sensor:
-    """A perspective camera that frames ``bounds``; a flat asset is seen face-on, long axis up."""
+def usd_view_matrix(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> np.ndarray:
+    """Where ``UsdAppUtilsFrameRecorder`` puts its camera for a stage without one (USD row-vector
+    layout): usdAppUtils/frameRecorder.cpp, ``_ComputeCameraToFrameStage``.
+
+    The default ``GfCamera`` looks down −Z (Y up) or, on a Z-up stage, is turned 90° about X to
+    look along +Y; its focal plane passes through the bounds' centre at the distance where the
+    bounds' half diagonal in that plane fills half the horizontal field of view, backed up by half
+    the bounds' depth (and by the near clip, 1, when closer than it).
+    """
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
+    centre, dim = (lo + hi) / 2.0, hi - lo
+    camera = Gf.Camera()
+    corner = dim[[0, 1]] / 2.0 if up_axis == "Y" else dim[[0, 2]] / 2.0
+    half_fov = math.radians(camera.GetFieldOfView(Gf.Camera.FOVHorizontal) / 2.0)
+    distance = float(np.linalg.norm(corner)) / math.tan(half_fov)
+    distance += dim[2] / 2.0 if up_axis == "Y" else dim[1] / 2.0
+    if distance < camera.clippingRange.min:
+        distance += camera.clippingRange.min
+    matrix = np.eye(4)
+    if up_axis == "Y":
+        matrix[3, :3] = centre + np.array([0.0, 0.0, distance])
+    else:
+        matrix[:3, :3] = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]  # 90° about X (row-vector layout)
+        matrix[3, :3] = centre + np.array([0.0, -distance, 0.0])
+    return matrix
+
+
+def usd_view_camera(
+    bounds: tuple[np.ndarray, np.ndarray],
+    up_axis: str,
+    resolution: tuple[int, int],
+    pixel_aspect: float,
+    conform: str,
+    diag: Diagnostics,
+) -> Sensor:
+    """USD's default view of a stage without a camera: ``GfCamera``'s 50 mm lens and 35 mm academy
+    aperture (20.955 × 15.2908 mm), clipping 1 to 10⁶, placed by :func:`usd_view_matrix`; the
+    aperture is conformed to the image like an authored camera's."""
+    return gf_camera_sensor(
+        Gf.Camera(), usd_view_matrix(bounds, up_axis), resolution, pixel_aspect, conform, diag, None
+    )
+
+
+def usd_view_resolution(width: int) -> tuple[int, int]:
+    """The image usdrecord makes of that view, ``width`` wide: height = width / aperture aspect."""
+    return width, max(1, int(width / Gf.Camera().aspectRatio))
+
+
+def stage_bounds(stage: Usd.Stage, time: Usd.TimeCode, purposes: tuple[str, ...]):
+    """The stage's world bounds as usdrecord computes them (``UsdGeomBBoxCache`` with extents
+    hints) for the rendered ``purposes``; ``None`` when empty."""
+    cache = UsdGeom.BBoxCache(time, list(purposes), useExtentsHint=True)
+    box = cache.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
+    if box.IsEmpty():
+        return None
+    return np.array(box.GetMin(), dtype=np.float64), np.array(box.GetMax(), dtype=np.float64)
+
+
+def default_view(
+    stage: Usd.Stage,
+    time: Usd.TimeCode,
+    synced,
+    framing: str,
+    resolution: tuple[int, int],
+    aspect: tuple[float, str],
+    diag: Diagnostics,
+) -> Sensor:
+    """The sensor of a stage without a camera: USD's default view of the stage's bounds (as
+    usdrecord computes them, else the ``synced`` scene's), or Pavonine's ``"portrait"`` of the
+    built geometry. ``aspect``: the product's pixel aspect ratio and conform policy."""
+    from pavonine.render.settings import RENDERED_PURPOSES
+
+    fallback = (np.full(3, -1.0), np.full(3, 1.0))
+    if framing == "portrait":
+        return portrait_camera(synced.bounds or fallback, synced.up_axis)
+    bounds = stage_bounds(stage, time, RENDERED_PURPOSES) or synced.bounds or fallback
+    return usd_view_camera(bounds, synced.up_axis, resolution, *aspect, diag)
+
+
+def portrait_camera(bounds: tuple[np.ndarray, np.ndarray], up_axis: str) -> Sensor:
+    """Pavonine's framing of a flat asset: seen face-on along its thin axis, long axis up (any other
+    asset from the front, 20° above); a 30° field of view on the image's smaller side."""
     lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
     center = (lo + hi) / 2.0
     extent = np.maximum(hi - lo, 1e-9)

@@ -38,6 +38,7 @@ from pavonine.render.integrator import (
     RR_THRESHOLD,
     runs_pavonine_path,
 )
+from pavonine.render.sensors import READ as SENSOR_SETTINGS
 
 if TYPE_CHECKING:
     from pxr import Usd
@@ -53,7 +54,6 @@ MAX_DEPTH_LIMIT = 2**31 - 1  # the largest depth Mitsuba's integer properties ho
 MAX_SHADING_SAMPLES = 65_536  # per camera sample, like the default --max-spp ceiling
 #: hdmitsuba's per-mesh refinement level (usd_mitsuba/mesh.py), read by render/subdivision.py
 SUBDIVISION_LEVEL = "mitsuba:subdivision_level"
-BOX_FILTER = "mitsuba:sensor:film:pixel_filter:type"  # a camera's; "box" is Pavonine's filter
 USD_RENDER = ("RenderSettings", "RenderProduct", "RenderVar")  # audited by render/settings.py
 DIRECT_SAMPLES = ("shading_samples", "emitter_samples", "bsdf_samples")
 
@@ -177,10 +177,10 @@ def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
     if kind in USD_RENDER:
         return
     for name in prim.GetAuthoredPropertyNames():
-        if name == BOX_FILTER and prim.GetAttribute(name).Get() == "box":
-            continue  # every image is filtered so (render/api.py)
         if name == SUBDIVISION_LEVEL and kind == "Mesh":
             continue  # read with the subdivision scheme (render/subdivision.py)
+        if name in SENSOR_SETTINGS.get(kind, ()):
+            continue  # hdmitsuba's sensors (render/sensors.py)
         if name.startswith("mitsuba:"):
             warn_ignored(prim, name, "not supported", diag)
 

@@ -1,5 +1,5 @@
-"""Pavonine's Python plugins (the feather BSDF, the front-only wrapper, the path integrator)
-registered with Mitsuba once per variant."""
+"""Pavonine's Python plugins (the feather BSDF, the front-only wrapper, the path integrator, the
+IES-shaped emitters) registered with Mitsuba once per variant."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ _registered: set[tuple[str, str]] = set()
 
 
 def register_once(name: str, kind: str, make_class: Callable[[], type]) -> None:
-    """Register the Python plugin ``name`` of ``kind`` (``"bsdf"`` or ``"integrator"``) with
+    """Register the Python plugin ``name`` of ``kind`` (``"bsdf"``, ``"emitter"`` or ``"integrator"``) with
     Mitsuba for the active variant, the class made by ``make_class``, unless it already is.
 
     Once per variant: registering again replaces the plugin's class object in Mitsuba while
@@ -20,6 +20,10 @@ def register_once(name: str, kind: str, make_class: Callable[[], type]) -> None:
     if key in _registered:
         return
     cls = make_class()
-    register = {"bsdf": mi.register_bsdf, "integrator": mi.register_integrator}[kind]
+    register = {
+        "bsdf": mi.register_bsdf,
+        "emitter": mi.register_emitter,
+        "integrator": mi.register_integrator,
+    }[kind]
     register(name, lambda props: cls(props))
     _registered.add(key)

@@ -373,27 +373,31 @@ def test_cli_max_depth_and_sample_count_reach_the_farm_tasks(tmp_path):
 
 
 @pytest.mark.render
-def test_mitsuba_attributes_elsewhere_are_named_not_dropped(tmp_path):
+def test_mitsuba_sensor_settings_are_read_and_unknown_ones_named(tmp_path):
     """hdmitsuba's ``irradiancemeter.usda`` pattern: a camera asking to be an irradiance meter, a
-    mesh naming it as its sensor. Neither is rendered so: both named. A box pixel filter is what
-    every image has, so it passes silently; another filter does not."""
+    mesh naming it as its sensor, a pixel filter: read (render/sensors.py, whose own tests measure
+    the meter), so not named; a filter Mitsuba does not have is named; another ``mitsuba:``
+    attribute on a camera is named as unread."""
     stage = dome_stage(tmp_path / "sensor.usda")
     camera = stage.GetPrimAtPath("/Cam")
     for name, value in (
         ("mitsuba:sensor:type", "irradiancemeter"),
-        ("mitsuba:sensor:film:pixel_filter:type", "box"),
+        ("mitsuba:sensor:film:pixel_filter:type", "gaussian"),
     ):
         camera.CreateAttribute(name, Sdf.ValueTypeNames.String).Set(value)
     stage.GetPrimAtPath("/Quad").CreateAttribute("mitsuba:sensor", Sdf.ValueTypeNames.String).Set(
         "/Cam"
     )
     found = render(stage, spp=1, resolution=(8, 8)).warnings
-    assert "/Cam: mitsuba:sensor:type (hdmitsuba's setting) is ignored: not supported" in found
-    assert "/Quad: mitsuba:sensor (hdmitsuba's setting) is ignored: not supported" in found
-    assert not any("pixel_filter" in w for w in found)
-    camera.GetAttribute("mitsuba:sensor:film:pixel_filter:type").Set("gaussian")
+    assert not any("mitsuba:sensor" in w for w in found), found
+    camera.GetAttribute("mitsuba:sensor:film:pixel_filter:type").Set("blackmanharris")
+    camera.CreateAttribute("mitsuba:sensor:film:type", Sdf.ValueTypeNames.String).Set("specfilm")
     found = render(stage, spp=1, resolution=(8, 8)).warnings
-    assert any(w.startswith("/Cam: mitsuba:sensor:film:pixel_filter:type") for w in found)
+    assert any(
+        w.startswith("/Cam: mitsuba:sensor:film:pixel_filter:type = 'blackmanharris'")
+        for w in found
+    )
+    assert "/Cam: mitsuba:sensor:film:type (hdmitsuba's setting) is ignored: not supported" in found
 
 
 @pytest.mark.render

@@ -72,15 +72,37 @@ def test_cone_softness_and_focus_shape_the_falloff(tmp_path):
     assert focused[middle] < 0.5 * hard[middle] and focused[0] == pytest.approx(hard[0], rel=0.2)
 
 
-def test_ies_profile_and_shadow_switch_are_warned(tmp_path):
+def test_missing_ies_file_and_shadow_switch_are_warned(tmp_path):
     stage = floor_with_point_light(tmp_path, "ies", **{"cone:angle": 30.0})
     lamp = stage.GetPrimAtPath("/Lamp")
     lamp.GetAttribute("inputs:shaping:ies:file").Set(Sdf.AssetPath("beam.ies"))
     UsdLux.ShadowAPI.Apply(lamp).CreateShadowEnableAttr(False)
     UsdLux.LightAPI(lamp).CreateDiffuseAttr(0.5)
     warnings = render(stage, spp=1, resolution=(8, 8)).warnings
-    for name in ("inputs:shaping:ies:file", "inputs:shadow:enable", "inputs:diffuse"):
+    assert "/Lamp: inputs:shaping:ies:file 'beam.ies' not found; the light is not shaped by it" in (
+        warnings
+    )
+    for name in ("inputs:shadow:enable", "inputs:diffuse"):
         assert any(w.startswith(f"/Lamp: {name} = ") for w in warnings), name
+
+
+@pytest.mark.parametrize("kind", ["DistantLight", "DomeLight", "SphereLight", "RectLight"])
+def test_a_180_degree_cone_is_no_shaping_and_no_warning(tmp_path, kind):
+    """usd-wg McUsd: ``shaping:cone:angle = 180`` on a sun and a dome; a 180° cone cuts nothing."""
+    stage = new_stage(tmp_path / f"{kind}.usda")
+    quad(stage, "/Floor", size=3.0)
+    light = getattr(UsdLux, kind).Define(stage, "/Light")
+    light.CreateIntensityAttr(2.0)
+    plain = render(stage, spp=4, resolution=(16, 16))
+    shaping = UsdLux.ShapingAPI.Apply(light.GetPrim())
+    shaping.CreateShapingConeAngleAttr(180.0)
+    coned = render(stage, spp=4, resolution=(16, 16))
+    assert coned.warnings == plain.warnings
+    assert np.allclose(coned.rgb, plain.rgb, rtol=1e-4, atol=1e-4)  # same seed: the same image
+    shaping.CreateShapingConeSoftnessAttr(0.6)  # now it cuts (softening from 72°), or is warned
+    if kind in ("DistantLight", "DomeLight"):
+        soft = render(stage, spp=4, resolution=(16, 16)).warnings
+        assert any("/Light: inputs:shaping:cone:angle = 180" in w for w in soft), soft
 
 
 def dome_stage(tmp_path, name, up, kind, pole=None):

@@ -3,7 +3,10 @@
 * :mod:`.distant` — ``DistantLight`` (and the default sun and sky);
 * :mod:`.dome` — ``DomeLight`` / ``DomeLight_1`` (pole axis, latlong textures);
 * :mod:`.area` — ``SphereLight`` with a radius, ``RectLight``, ``DiskLight``, ``CylinderLight``;
-* :mod:`.shaping` — point-like ``SphereLight`` → ``point``/``spot`` (``ShapingAPI`` cones, focus);
+* :mod:`.shaping` — point-like ``SphereLight`` → ``point``/``spot`` (``ShapingAPI`` cones, focus),
+  and the whole ``ShapingAPI`` (IES × cone × focus) as a table of factors per direction;
+* :mod:`.ies` — IES LM-63 files → luminous-intensity profiles (UsdLux ``angleScale``, ``normalize``);
+* :mod:`.ies_emitter` — the Mitsuba emitters that read that table (point and area lights);
 * :mod:`.common` — radiance, attribute reading and the audit that warns about every UsdLux
   attribute no translator honoured (from USD's schema registry, so new attributes are covered).
 

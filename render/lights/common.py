@@ -101,7 +101,7 @@ def cone_has_no_effect(reader: LightReader, widest: float) -> bool:
     emission spans ``widest`` degrees off its axis (90 for one-sided, 180 for all-round emitters).
 
     The cone attenuates from ``angle · (1 − softness)`` on (UsdLux), so it changes nothing when that
-    angle is at least ``widest``.
+    angle is at least ``widest``: a 180° cone without softness is no shaping at all, for any light.
     """
     angle = reader.number("inputs:shaping:cone:angle", 90.0, honour=False)
     softness = float(
@@ -150,7 +150,11 @@ def audit(reader: LightReader) -> None:
             continue
         value = prop.Get(reader.time)
         fallback = definition.GetAttributeFallbackValue(name)
-        if not _same(value, fallback):
+        if _same(value, fallback):
+            continue
+        if name in reader.moot:
+            reader.warn(f"{name} = {_show(value)} changes nothing: {reader.moot[name]}")
+        else:
             reader.warn(
                 f"{name} = {_show(value)} is not supported by the Mitsuba delegate; ignored"
             )

@@ -15,6 +15,7 @@ import numpy as np
 
 from pavonine.render.lights.common import (
     LightReader,
+    cone_has_no_effect,
     cone_solid_angle,
     frame,
     radiance,
@@ -33,6 +34,7 @@ def translate(
     L = radiance(reader)
     normalize = bool(reader.value("inputs:normalize", False))
     angle = reader.number("inputs:angle", 0.53)
+    cone_has_no_effect(reader, 180.0)  # a 180° cone: no shaping, not worth a word
     reader.no_effect(
         "a DistantLight's light travels along its axis, where cones and focus do not attenuate",
         "inputs:shaping:cone:angle",

@@ -10,7 +10,7 @@ Orientation (the UsdLux docs, as usdImaging applies them):
 
 The texture is multiplied by the light's colour (per channel), intensity and exposure; only the
 light's rotation is used (an environment has no position or size). ``normalize`` has no effect on
-domes (UsdLux). ``latlong`` and ``automatic`` textures are read as latitude-longitude maps; the
+domes (UsdLux); a 180° cone (``ShapingAPI``) shapes nothing. ``latlong`` and ``automatic`` textures are read as latitude-longitude maps; the
 other formats are warned about and read as latlong.
 """
 
@@ -22,6 +22,7 @@ from pxr import UsdGeom
 from pavonine.render.lights.common import (
     LightReader,
     bitmap,
+    cone_has_no_effect,
     light_texture,
     radiance,
     rgb,
@@ -38,6 +39,7 @@ def translate(reader: LightReader, world_usd: np.ndarray) -> dict:
     """The Mitsuba emitter of a dome light."""
     L = radiance(reader)
     reader.no_effect("dome lights have no size to normalize by (UsdLux)", "inputs:normalize")
+    cone_has_no_effect(reader, 180.0)  # a 180° cone: no shaping at all
     texels = light_texture(reader, "inputs:texture:file")
     if texels is None:
         reader.honour("inputs:texture:format")
