@@ -13,8 +13,16 @@ from pathlib import Path
 import numpy as np
 
 MIN_PIXELS = 20
-#: Ocellar classes (pipeline/maps/paint.py): 5 the heart, 4…2 the rings, 1 the vane, 0 below.
-ZONE_NAMES = {5: "heart", 4: "ring 4", 3: "ring 3", 2: "ring 2", 1: "vane", 0: "lower vane"}
+#: Ocellar classes (pipeline/maps/paint.py) by what the eye feather shows in them: 5 the heart,
+#: 4…2 the rings, 1 the vane, 0 below it.
+ZONE_NAMES = {
+    5: "heart",
+    4: "blue-green ring",
+    3: "bronze ring",
+    2: "outer ring",
+    1: "vane",
+    0: "lower vane",
+}
 
 
 def feather_hits(stage_path: Path, width: int, height: int, mesh: str = "Vane"):

@@ -5,18 +5,22 @@ One glTF node per mesh of the chosen LOD (render or default purpose), positions 
 vertex), ``TEXCOORD_0`` = ``st`` with ``v`` flipped (glTF's origin is the image's top left),
 normals, and per material:
 
-* the feather material (``PavonineFeatherAPI``, baked): ``baseColorTexture`` = the baked
-  ``textures/basecolor.png`` (sRGB colour, linear alpha), ``alphaMode`` ``MASK`` with
-  ``alphaCutoff`` = the preview's ``opacityThreshold``, ``metallicRoughnessTexture`` (G = baked
-  roughness, B = metallic 0), double-sided, and ``KHR_materials_iridescence``: factor 1 with
-  ``iridescenceTexture`` R = the film weight (structural share), ``iridescenceThicknessTexture``
-  G = the film thickness over ``[0, 1000]`` nm (the baked texture's µm), ``iridescenceIor`` = the
-  opacity-weighted mean of the baked film index (glTF has one index per material);
+* the feather material (``PavonineFeatherAPI``, baked): the look fitted to the model's BRDF
+  by :mod:`pavonine.pipeline.export.look` (a base colour, a film and a roughness per texel):
+  ``baseColorTexture`` = the fitted base (sRGB colour, linear alpha = the baked opacity),
+  ``alphaMode`` ``MASK`` with ``alphaCutoff`` = the preview's ``opacityThreshold``,
+  ``metallicRoughnessTexture`` (G = fitted roughness, B = metallic 0), double-sided,
+  ``KHR_materials_specular`` ``specularFactor`` 0 (no dielectric lobe on top of the film) and
+  ``KHR_materials_iridescence``: factor 1 with ``iridescenceTexture`` R = the film's weight,
+  ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm and the fitted
+  ``iridescenceIor`` (glTF has one index per material);
 * any other material with a UsdPreviewSurface: its constant ``diffuseColor`` (linear, as glTF's
   ``baseColorFactor``), ``roughness`` and ``metallic``.
 
 The baked textures are read from the materials' own networks (the preview's ``BakedColor`` and
-``BakedRoughness``, the preview-purpose material's film images), through USD's asset resolver.
+``BakedRoughness``, the preview-purpose material's film images), through USD's asset resolver:
+they give the opacity, the atlas resolution and the bake's mean film index (the fit's first
+candidate).
 """
 
 from __future__ import annotations
@@ -206,7 +210,7 @@ def _feather_material(out: _Binary, material, portable, name: str, meshes: list)
     extension = {
         "iridescenceFactor": 1.0,
         "iridescenceTexture": {"index": iridescence},
-        "iridescenceIor": film_ior,
+        "iridescenceIor": look.film_ior,
         "iridescenceThicknessMinimum": 0.0,
         "iridescenceThicknessMaximum": THICKNESS_MAX_NM,
         "iridescenceThicknessTexture": {"index": iridescence},

@@ -182,7 +182,7 @@ def _film_at(table: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
 #: View cosines of the film table :func:`fit_film` interpolates (linear in cos θ).
 COSINES = np.linspace(0.0, 1.0, 65)
 #: Perceptual roughness values :func:`fit_film` searches.
-ROUGHNESS_GRID = np.array([0.2, 0.3, 0.4, 0.5, 0.7, 1.0])
+ROUGHNESS_GRID = np.array([0.25, 0.35, 0.5, 0.7, 1.0])
 
 
 def fit_film(

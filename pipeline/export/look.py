@@ -25,6 +25,8 @@ from pavonine.pipeline.export.iridescence import VIEWS, fit_base, fit_film
 
 #: The film search's atlas resolution at most (texels per side).
 FIT_RESOLUTION = 128
+#: Film indices the fit tries (with the bake's mean index), on an eighth of the searched texels.
+IOR_CANDIDATES = (1.45, 1.8, 2.1)
 #: Side (searched texels) of the median that picks each texel's film branch.
 MEDIAN_SIZE = 5
 
@@ -32,12 +34,14 @@ MEDIAN_SIZE = 5
 @dataclass
 class FittedLook:
     """Images ``[row, column]`` over the atlas (row 0 = top): ``base_rgba`` (linear Rec. 709 +
-    opacity), iridescence ``weight``, ``thickness_nm`` and perceptual ``roughness``."""
+    opacity), iridescence ``weight``, ``thickness_nm`` and perceptual ``roughness``; and the
+    film's index ``film_ior``."""
 
     base_rgba: np.ndarray
     weight: np.ndarray
     thickness_nm: np.ndarray
     roughness: np.ndarray
+    film_ior: float
 
 
 def _searched(texels, step: int) -> tuple[np.ndarray, np.ndarray]:
@@ -72,9 +76,21 @@ def _local_median(texels, subset: np.ndarray, values: np.ndarray, step: int) -> 
     return filled[rows, cols]
 
 
+def _best_index(target, light, views, baked_ior: float) -> float:
+    """The film index (the bake's mean or one of :data:`IOR_CANDIDATES`) whose free fit of every
+    eighth searched texel leaves the smallest mean relative residual."""
+    few = slice(None, None, 8)
+    errors = {}
+    for ior in (baked_ior, *IOR_CANDIDATES):
+        fit = fit_film(target[few], light[few], views[few], ior)
+        errors[ior] = np.mean(np.abs(fit.reflectance - target[few]) / (target[few] + 0.02))
+    return min(errors, key=errors.get)
+
+
 def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> FittedLook:
     """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
-    ``st`` atlas rasterised at ``resolution``) with a film of index ``film_ior``."""
+    ``st`` atlas rasterised at ``resolution``); ``film_ior``: the bake's mean film index, the
+    first candidate for the film's."""
     params, maps, _ = feather_inputs(material)
     vane = merge([mesh_data(prim) for prim in meshes])
     texels = surface_texels(vane, resolution)
@@ -85,6 +101,7 @@ def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> Fit
     views = np.einsum("nij,kj->nki", frames, VIEWS)
     step = max(1, resolution // FIT_RESOLUTION)
     subset, nearest_fit = _searched(texels, step)
+    film_ior = _best_index(target[subset], light[subset], views[subset], film_ior)
     sub = (target[subset], light[subset], views[subset], film_ior)
     first = fit_film(*sub)
     film = fit_film(*sub, prior_nm=_local_median(texels, subset, first.thickness_nm, step))
@@ -101,4 +118,5 @@ def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> Fit
         weight=image(weight),
         thickness_nm=image(thickness),
         roughness=image(roughness),
+        film_ior=film_ior,
     )
