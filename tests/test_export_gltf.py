@@ -67,7 +67,7 @@ def test_glb_carries_the_baked_feather(glb, eye_asset, tmp_path):
     iridescence = feather.extensions["KHR_materials_iridescence"]
     assert iridescence["iridescenceThicknessMinimum"] == 0.0
     assert iridescence["iridescenceThicknessMaximum"] == 1000.0
-    assert 1.3 < iridescence["iridescenceIor"] < 2.0
+    assert 1.3 < iridescence["iridescenceIor"] < 2.2  # the fit's pick (pipeline/export/look.py)
     # The fitted look (pipeline/export/look.py): the base holds what the film does not, so it is
     # darker than the bake's whole-colour base; the film has weight and thickness in the vane.
     base = _image(doc, feather.pbrMetallicRoughness.baseColorTexture.index, tmp_path)
