@@ -202,6 +202,33 @@ def texel_appearance(
     uniform: alpha 1, class 0, gradation 0, angle 0, structural share 1). ``roughness``: the
     structural part's GGX roughness.
     """
+    inputs = _texel_inputs(texels, maps, params)
+    share, frames = inputs["share"], inputs["frames"]
+    wi = frames @ REFERENCE_LIGHT
+    wo = frames @ REFERENCE_VIEW
+    base, found = _reflectance(params, inputs, REFERENCE_LIGHT, REFERENCE_VIEW)
+    # Eq. 7's weight of the long axis at the reference half-vector: cos²ψ = h_x² / (h_x² + h_y²).
+    h = wi + wo
+    across = h[:, 0] ** 2 + h[:, 1] ** 2
+    cos2_psi = np.where(across > 1e-12, h[:, 0] ** 2 / np.maximum(across, 1e-12), 0.5)
+    peak = WAVELENGTHS_NM[np.argmax(found.spectra, axis=1)]
+    film_ior = cos2_psi * effective_index(params, *found.long, peak) + (
+        1.0 - cos2_psi
+    ) * effective_index(params, *found.short, peak)
+    return TexelAppearance(
+        base_color=np.clip(base, 0.0, 1.0),
+        alpha=inputs["alpha"],
+        roughness=share * roughness + (1.0 - share),
+        thickness_nm=(FILM_ORDER + 0.5) * peak / (2.0 * film_ior),
+        film_ior=film_ior,
+        film_weight=share,
+    )
+
+
+def _texel_inputs(texels: SurfaceTexels, maps: Mapping[str, np.ndarray], params) -> dict:
+    """Per covered texel: class ``k``, ``gradation``, structural ``share``, ``alpha`` and the
+    barbule ``frames``, sampled from the maps (a missing map is uniform, as documented in
+    :func:`texel_appearance`)."""
     uv = texels.feather_uv
     n = len(uv)
 
@@ -214,30 +241,40 @@ def texel_appearance(
     k = np.zeros(n, dtype=np.int64)
     if grey is not None:
         k = ocellar_class(sample_nearest(grey, uv), classes=len(params.classes)).astype(np.int64)
-    share = bilinear("melanin", 1.0)
-    frames = barbule_frames(texels, bilinear("angle", 0.0))
-    wi = frames @ REFERENCE_LIGHT
-    wo = frames @ REFERENCE_VIEW
-    found = structure(params, k, bilinear("gradation", 0.0), wi, wo)
+    return {
+        "k": k,
+        "gradation": bilinear("gradation", 0.0),
+        "share": bilinear("melanin", 1.0),
+        "alpha": bilinear("alpha", 1.0),
+        "frames": barbule_frames(texels, bilinear("angle", 0.0)),
+    }
+
+
+def _reflectance(params, inputs: dict, light: np.ndarray, view: np.ndarray):
+    """The model's reflectance factor ``π f`` (linear Rec. 709, unclipped) of every texel for a
+    distant ``light`` and ``view`` (object space), and the structural part's :class:`Structure`."""
+    frames = inputs["frames"]
+    found = structure(params, inputs["k"], inputs["gradation"], frames @ light, frames @ view)
     structural = colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, found.spectra)
     melanin = optics.model_for(params).brdf(
-        REFERENCE_LIGHT, REFERENCE_VIEW, WAVELENGTHS_NM, 0, 0.0, structural_share=0.0
+        light, view, WAVELENGTHS_NM, 0, 0.0, structural_share=0.0
     )
     melanin_rgb = colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, math.pi * melanin)
-    base = share[:, None] * structural + (1.0 - share[:, None]) * melanin_rgb
-    # Eq. 7's weight of the long axis at the reference half-vector: cos²ψ = h_x² / (h_x² + h_y²).
-    h = wi + wo
-    across = h[:, 0] ** 2 + h[:, 1] ** 2
-    cos2_psi = np.where(across > 1e-12, h[:, 0] ** 2 / np.maximum(across, 1e-12), 0.5)
-    peak = WAVELENGTHS_NM[np.argmax(found.spectra, axis=1)]
-    film_ior = cos2_psi * effective_index(params, *found.long, peak) + (
-        1.0 - cos2_psi
-    ) * effective_index(params, *found.short, peak)
-    return TexelAppearance(
-        base_color=np.clip(base, 0.0, 1.0),
-        alpha=bilinear("alpha", 1.0),
-        roughness=share * roughness + (1.0 - share),
-        thickness_nm=(FILM_ORDER + 0.5) * peak / (2.0 * film_ior),
-        film_ior=film_ior,
-        film_weight=share,
-    )
+    share = inputs["share"][:, None]
+    return share * structural + (1.0 - share) * melanin_rgb, found
+
+
+def reflectance_at_views(
+    texels: SurfaceTexels,
+    maps: Mapping[str, np.ndarray],
+    params: FeatherParameters,
+    light: np.ndarray,
+    views: np.ndarray,
+) -> tuple[np.ndarray, dict]:
+    """``(n, len(views), 3)``: every covered texel's reflectance factor ``π f`` (linear Rec. 709,
+    unclipped) for the distant ``light`` and each of ``views`` (object-space unit vectors toward
+    the light and the viewer), as :func:`texel_appearance` computes it for the reference pair;
+    and the texels' inputs (``alpha``, ``share``, ``frames``: rows tangent, bitangent, normal)."""
+    inputs = _texel_inputs(texels, maps, params)
+    found = [_reflectance(params, inputs, light, view)[0] for view in views]
+    return np.stack(found, axis=1), inputs

@@ -151,7 +151,8 @@ def _open(root: Path):
     return stage, default
 
 
-def _bound_meshes(stage, default, material) -> list:
+def bound_meshes(stage, default, material) -> list:
+    """The mesh prims under ``default`` (render or default purpose) bound to ``material``."""
     from pxr import Usd, UsdGeom, UsdShade
 
     found = []
@@ -272,17 +273,24 @@ def _material_layer(root: Path, material):
 
 def _job(root: Path, stage, default, material) -> _Job:
     """``material``'s meshes, parameters and maps, read and checked (:class:`InputError`)."""
+    where = str(material.GetPath())
+    target, layer = _material_layer(root, material)
+    meshes = bound_meshes(stage, default, material)
+    if not meshes:
+        raise InputError(where, "no mesh is bound to this material")
+    params, maps, paths = feather_inputs(material)
+    return _Job(material, meshes, params, maps, paths, target, layer)
+
+
+def feather_inputs(material) -> tuple[object, dict, dict]:
+    """A feather material's validated parameters, its maps (grey images by key) and their
+    authored asset paths; :class:`InputError` naming the attribute or file at fault."""
     from pavonine.asset_io import local_file
     from pavonine.materials.parameters import ParameterError
     from pavonine.pipeline.maps.io import check_aspects, read_data_map
     from pavonine.render.shading.feather import parameter_input_error
     from pavonine.schemas import authoring
 
-    where = str(material.GetPath())
-    target, layer = _material_layer(root, material)
-    meshes = _bound_meshes(stage, default, material)
-    if not meshes:
-        raise InputError(where, "no mesh is bound to this material")
     try:
         params = authoring.read_feather_parameters(material).validate()
     except ParameterError as exc:
@@ -299,7 +307,7 @@ def _job(root: Path, stage, default, material) -> _Job:
             raise InputError(fields[key], "not found") from None
         paths[key] = material.GetPrim().GetAttribute(name).Get().path
     check_aspects(maps, fields)
-    return _Job(material, meshes, params, maps, paths, target, layer)
+    return params, maps, paths
 
 
 def _bake_in_place(root: Path, resolution: int, report=None) -> BakeReport:

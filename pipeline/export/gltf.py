@@ -5,18 +5,22 @@ One glTF node per mesh of the chosen LOD (render or default purpose), positions 
 vertex), ``TEXCOORD_0`` = ``st`` with ``v`` flipped (glTF's origin is the image's top left),
 normals, and per material:
 
-* the feather material (``PavonineFeatherAPI``, baked): ``baseColorTexture`` = the baked
-  ``textures/basecolor.png`` (sRGB colour, linear alpha), ``alphaMode`` ``MASK`` with
-  ``alphaCutoff`` = the preview's ``opacityThreshold``, ``metallicRoughnessTexture`` (G = baked
-  roughness, B = metallic 0), double-sided, and ``KHR_materials_iridescence``: factor 1 with
-  ``iridescenceTexture`` R = the film weight (structural share), ``iridescenceThicknessTexture``
-  G = the film thickness over ``[0, 1000]`` nm (the baked texture's µm), ``iridescenceIor`` = the
-  opacity-weighted mean of the baked film index (glTF has one index per material);
+* the feather material (``PavonineFeatherAPI``, baked): the look fitted to the model's BRDF
+  by :mod:`pavonine.pipeline.export.look` (a base colour, a film and a roughness per texel):
+  ``baseColorTexture`` = the fitted base (sRGB colour, linear alpha = the baked opacity),
+  ``alphaMode`` ``MASK`` with ``alphaCutoff`` = the preview's ``opacityThreshold``,
+  ``metallicRoughnessTexture`` (G = fitted roughness, B = metallic 0), double-sided,
+  ``KHR_materials_specular`` ``specularFactor`` 0 (no dielectric lobe on top of the film) and
+  ``KHR_materials_iridescence``: factor 1 with ``iridescenceTexture`` R = the film's weight,
+  ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm and the fitted
+  ``iridescenceIor`` (glTF has one index per material);
 * any other material with a UsdPreviewSurface: its constant ``diffuseColor`` (linear, as glTF's
   ``baseColorFactor``), ``roughness`` and ``metallic``.
 
 The baked textures are read from the materials' own networks (the preview's ``BakedColor`` and
-``BakedRoughness``, the preview-purpose material's film images), through USD's asset resolver.
+``BakedRoughness``, the preview-purpose material's film images), through USD's asset resolver:
+they give the opacity, the atlas resolution and the bake's mean film index (the fit's first
+candidate).
 """
 
 from __future__ import annotations
@@ -28,11 +32,14 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.pipeline.bake.asset import mesh_data, root_layer_path
+from pavonine.materials import colour
+from pavonine.pipeline.bake.asset import bound_meshes, mesh_data, root_layer_path
 from pavonine.pipeline.bake.textures import IOR_RANGE, THICKNESS_MAX_NM
 from pavonine.pipeline.errors import InputError, atomic_path
+from pavonine.pipeline.export.look import fitted_look
 
 IRIDESCENCE = "KHR_materials_iridescence"
+SPECULAR = "KHR_materials_specular"
 GENERATOR = "pavonine (pipeline/export/gltf.py, pygltflib)"
 
 
@@ -113,10 +120,13 @@ class _Binary:
         self.doc.save_binary(str(path))
 
 
-def _png(rgb: np.ndarray) -> bytes:
-    """An 8-bit PNG of ``rgb`` (``[row, column, channel]`` in [0, 1]), raw data (no colour tag)."""
+def _png(rgb: np.ndarray, encode=None) -> bytes:
+    """An 8-bit PNG of ``rgb`` (``[row, column, channel]`` in [0, 1]), raw data (no colour tag);
+    ``encode`` (e.g. sRGB) applies to the first three channels."""
     import OpenImageIO as oiio
 
+    if encode is not None:
+        rgb = np.concatenate([encode(rgb[..., :3]), rgb[..., 3:]], axis=-1)
     pixels = np.round(np.clip(rgb, 0.0, 1.0) * 255.0).astype(np.uint8)
     height, width, channels = pixels.shape
     with tempfile.TemporaryDirectory(prefix="pavonine-gltf-") as tmp:
@@ -162,9 +172,8 @@ def _surface(material, context: str = ""):
     return UsdShade.Shader(output.GetConnectedSources()[0][0].source.GetPrim())
 
 
-def _feather_material(out: _Binary, material, portable, name: str) -> int:
+def _feather_material(out: _Binary, material, portable, name: str, meshes: list) -> int:
     """The glTF material of a baked feather material (see the module docstring)."""
-    from pavonine.asset_io import read_bytes
     from pavonine.pipeline.bake.textures import read_data_textures
 
     gl = out.gl
@@ -185,21 +194,23 @@ def _feather_material(out: _Binary, material, portable, name: str) -> int:
     if missing:
         raise InputError(where, f"no baked textures ({', '.join(missing)}); run pavonine bake")
     data = read_data_textures(files)
-    base = read_bytes(files["base_color"])
-    zeros = np.zeros_like(data["roughness"])
-    rough = out.texture(_png(np.stack([zeros, data["roughness"], zeros], -1)), f"{name} roughness")
-    iridescence = out.texture(
-        _png(np.stack([data["film_weight"], data["film_thickness"], zeros], -1)),
-        f"{name} iridescence",
-    )
     threshold = preview.GetInput("opacityThreshold")
     cutoff = float(threshold.Get()) if threshold and threshold.Get() else 0.5
     alpha = _alpha_weights(files["base_color"], data["film_ior"].shape, cutoff)
     index = IOR_RANGE[0] + (IOR_RANGE[1] - IOR_RANGE[0]) * data["film_ior"]
+    film_ior = float(np.average(index, weights=alpha))
+    look = fitted_look(material, meshes, data["roughness"].shape[0], film_ior)
+    base = _png(look.base_rgba, colour.display_encode)
+    zeros = np.zeros_like(look.weight)
+    rough = out.texture(_png(np.stack([zeros, look.roughness, zeros], -1)), f"{name} roughness")
+    iridescence = out.texture(
+        _png(np.stack([look.weight, look.thickness_nm / THICKNESS_MAX_NM, zeros], -1)),
+        f"{name} iridescence",
+    )
     extension = {
         "iridescenceFactor": 1.0,
         "iridescenceTexture": {"index": iridescence},
-        "iridescenceIor": float(np.average(index, weights=alpha)),
+        "iridescenceIor": look.film_ior,
         "iridescenceThicknessMinimum": 0.0,
         "iridescenceThicknessMaximum": THICKNESS_MAX_NM,
         "iridescenceThicknessTexture": {"index": iridescence},
@@ -216,7 +227,7 @@ def _feather_material(out: _Binary, material, portable, name: str) -> int:
             alphaMode=gl.MASK,
             alphaCutoff=cutoff,
             doubleSided=True,
-            extensions={IRIDESCENCE: extension},
+            extensions={IRIDESCENCE: extension, SPECULAR: {"specularFactor": 0.0}},
         )
     )
     return len(out.doc.materials) - 1
@@ -326,7 +337,8 @@ def export_gltf(asset: str | os.PathLike, output: str | os.PathLike, lod: str | 
                 preview, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(
                     UsdShade.Tokens.preview
                 )
-                materials[key] = _feather_material(out, bound, preview, name)
+                meshes = bound_meshes(stage, default, bound)
+                materials[key] = _feather_material(out, bound, preview, name, meshes)
             else:
                 materials[key] = _preview_material(out, bound, name)
             report.materials.append(key)
@@ -354,7 +366,7 @@ def export_gltf(asset: str | os.PathLike, output: str | os.PathLike, lod: str | 
     out.doc.scenes.append(gl.Scene(nodes=[len(out.doc.nodes) - 1]))
     out.doc.scene = 0
     if any(IRIDESCENCE in (m.extensions or {}) for m in out.doc.materials):
-        out.doc.extensionsUsed = [IRIDESCENCE]
+        out.doc.extensionsUsed = [IRIDESCENCE, SPECULAR]
     with atomic_path(output) as tmp:
         out.save(tmp)
     report.bytes = output.stat().st_size

@@ -1,0 +1,122 @@
+"""The glTF feather material's textures: the model's reflectance of every texel of the atlas at
+the reference light and the face-on and tilted views (:mod:`pavonine.pipeline.bake.appearance`),
+fitted by :func:`pavonine.pipeline.export.iridescence.fit_film` to what a glTF viewer draws
+(base colour + ``KHR_materials_iridescence``, no dielectric specular).
+
+The film (weight, thickness, roughness) is searched on every ``step``-th texel of the atlas in
+each direction (at most :data:`FIT_RESOLUTION`² texels: the search is the costly part) and
+handed to every texel from its nearest searched one. The search runs twice: freely, then within
+30 nm of the median of the free search's thicknesses around the texel, so that neighbouring
+texels sit on one branch of the film's colour cycle (a texture filter averaging thicknesses of two branches would
+draw a third colour); each texel's base colour is then fitted at
+full resolution to its own reflectance (:func:`~pavonine.pipeline.export.iridescence.fit_base`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pavonine.pipeline.bake.appearance import REFERENCE_LIGHT, reflectance_at_views
+from pavonine.pipeline.bake.asset import feather_inputs, merge, mesh_data
+from pavonine.pipeline.bake.texels import dilate, nearest_covered, scatter, surface_texels
+from pavonine.pipeline.export.iridescence import VIEWS, fit_base, fit_film
+
+#: The film search's atlas resolution at most (texels per side).
+FIT_RESOLUTION = 128
+#: Film indices the fit tries (with the bake's mean index), on an eighth of the searched texels.
+IOR_CANDIDATES = (1.45, 1.8, 2.1)
+#: Side (searched texels) of the median that picks each texel's film branch.
+MEDIAN_SIZE = 5
+
+
+@dataclass
+class FittedLook:
+    """Images ``[row, column]`` over the atlas (row 0 = top): ``base_rgba`` (linear Rec. 709 +
+    opacity), iridescence ``weight``, ``thickness_nm`` and perceptual ``roughness``; and the
+    film's index ``film_ior``."""
+
+    base_rgba: np.ndarray
+    weight: np.ndarray
+    thickness_nm: np.ndarray
+    roughness: np.ndarray
+    film_ior: float
+
+
+def _searched(texels, step: int) -> tuple[np.ndarray, np.ndarray]:
+    """The covered texels on the ``step`` grid, and for every covered texel the position (in
+    that subset) of its nearest one."""
+    from scipy import ndimage
+
+    resolution = texels.resolution
+    rows, cols = np.divmod(texels.index, resolution)
+    on_grid = (rows % step == 0) & (cols % step == 0)
+    grid = np.zeros((resolution, resolution), dtype=bool)
+    grid[rows[on_grid], cols[on_grid]] = True
+    _, (near_r, near_c) = ndimage.distance_transform_edt(~grid, return_indices=True)
+    slot = np.full(resolution * resolution, -1)
+    slot[texels.index[on_grid]] = np.arange(on_grid.sum())
+    return np.flatnonzero(on_grid), slot[near_r[rows, cols] * resolution + near_c[rows, cols]]
+
+
+def _local_median(texels, subset: np.ndarray, values: np.ndarray, step: int) -> np.ndarray:
+    """``values`` (one per searched texel) median-filtered over :data:`MEDIAN_SIZE`² searched
+    texels of the atlas (texels outside the charts take their nearest searched value)."""
+    from scipy import ndimage
+
+    size = -(-texels.resolution // step)
+    rows, cols = np.divmod(texels.index[subset], texels.resolution)
+    rows, cols = rows // step, cols // step
+    image = np.zeros((size, size))
+    known = np.zeros((size, size), dtype=bool)
+    image[rows, cols], known[rows, cols] = values, True
+    _, (near_r, near_c) = ndimage.distance_transform_edt(~known, return_indices=True)
+    filled = ndimage.median_filter(image[near_r, near_c], size=MEDIAN_SIZE, mode="nearest")
+    return filled[rows, cols]
+
+
+def _best_index(target, light, views, baked_ior: float) -> float:
+    """The film index (the bake's mean or one of :data:`IOR_CANDIDATES`) whose free fit of every
+    eighth searched texel leaves the smallest mean relative residual."""
+    few = slice(None, None, 8)
+    errors = {}
+    for ior in (baked_ior, *IOR_CANDIDATES):
+        fit = fit_film(target[few], light[few], views[few], ior)
+        errors[ior] = np.mean(np.abs(fit.reflectance - target[few]) / (target[few] + 0.02))
+    return min(errors, key=errors.get)
+
+
+def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> FittedLook:
+    """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
+    ``st`` atlas rasterised at ``resolution``); ``film_ior``: the bake's mean film index, the
+    first candidate for the film's."""
+    params, maps, _ = feather_inputs(material)
+    vane = merge([mesh_data(prim) for prim in meshes])
+    texels = surface_texels(vane, resolution)
+    target, inputs = reflectance_at_views(texels, maps, params, REFERENCE_LIGHT, VIEWS)
+    target = np.clip(target, 0.0, None)  # the gamut a viewer can show
+    frames = inputs["frames"]
+    light = frames @ REFERENCE_LIGHT
+    views = np.einsum("nij,kj->nki", frames, VIEWS)
+    step = max(1, resolution // FIT_RESOLUTION)
+    subset, nearest_fit = _searched(texels, step)
+    film_ior = _best_index(target[subset], light[subset], views[subset], film_ior)
+    sub = (target[subset], light[subset], views[subset], film_ior)
+    first = fit_film(*sub)
+    film = fit_film(*sub, prior_nm=_local_median(texels, subset, first.thickness_nm, step))
+    weight, thickness = film.weight[nearest_fit], film.thickness_nm[nearest_fit]
+    roughness = film.roughness[nearest_fit]
+    fit = fit_base(target, light, views, weight, thickness, roughness, film_ior)
+    nearest = nearest_covered(texels.covered)
+
+    def image(values: np.ndarray) -> np.ndarray:
+        return dilate(scatter(texels, values), nearest)
+
+    return FittedLook(
+        base_rgba=image(np.concatenate([fit.base, inputs["alpha"][:, None]], axis=1)),
+        weight=image(weight),
+        thickness_nm=image(thickness),
+        roughness=image(roughness),
+        film_ior=film_ior,
+    )

@@ -1,0 +1,67 @@
+"""The glTF look's model (pipeline/export/iridescence.py): its port of the
+``KHR_materials_iridescence`` film against the Airy sum it approximates, and the fit recovering a
+film it was given. (That three.js draws what the port says: tests/test_gltf_threejs.py.)"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavonine.materials import colour
+from pavonine.materials.materialx import thin_film_reflectance
+from pavonine.pipeline.export import iridescence as irid
+
+
+@pytest.mark.parametrize("thickness", [150.0, 300.0, 450.0, 700.0])
+@pytest.mark.parametrize("n_film", [1.33, 1.6])
+def test_film_at_normal_incidence_is_the_airy_sum_seen_in_rec709(thickness, n_film):
+    """Belcour & Barla's Fourier-space film vs the exact Airy reflectance of a free-standing film
+    (substrate index 1, as F0 = 0 makes it) integrated against the CIE 1931 functions (equal
+    energy, Y of a perfect reflector = 1) and taken to linear Rec. 709."""
+    wavelengths = np.arange(360.0, 831.0, 1.0)
+    spectrum = thin_film_reflectance(wavelengths, thickness, n_film, 1.0)
+    cmf = colour.cmfs(wavelengths)
+    xyz = spectrum @ cmf / cmf[:, 1].sum()
+    exact = xyz @ irid.XYZ_TO_REC709.T
+    fitted = irid.film_fresnel(np.array(1.0), n_film, np.array(thickness))
+    # Orders 0–2 and Gaussian fits of the CIE functions: within 0.04 of the exact colour.
+    assert np.max(np.abs(fitted - exact)) < 0.04, (fitted, exact)
+    assert exact.max() > 0.05  # a coloured film, not a near-zero comparison
+
+
+def test_film_vanishes_with_its_thickness_and_grows_toward_grazing():
+    # The film's index goes to air's as t → 0; the reference's clamp of R12·R23 to 1e-5 leaves
+    # under 0.01 (three.js then drops the film altogether).
+    assert np.allclose(irid.film_fresnel(np.array(1.0), 1.6, np.array(0.0)), 0.0, atol=0.01)
+    glancing = irid.film_fresnel(np.array([1.0, 0.2]), 1.6, np.array([400.0, 400.0]))
+    assert glancing[1].mean() > glancing[0].mean()
+
+
+def test_ggx_lobe_in_closed_form_at_the_mirror_configuration():
+    """l = v = n: D = 1/(π α²) (Walter et al. 2007 Eq. 33 at θ_h = 0) and V = 1/4, so the lobe
+    π·D·V = 1/(4 α²)."""
+    for roughness in (0.3, 0.6):
+        alpha = roughness**2
+        n = np.array([[0.0, 0.0, 1.0]])
+        lobe = irid.ggx_lobe(n, n, np.array([roughness]))
+        # V(1, 1) = 1/4: π · 1/(π α²) · 1/4.
+        assert lobe[0] == pytest.approx(1.0 / (4.0 * alpha**2), rel=1e-6)
+
+
+def test_fit_recovers_a_film_it_was_given():
+    rng = np.random.default_rng(3)
+    n = 40
+    light = np.tile(irid.tilted_views([25.0]), (n, 1))
+    views = np.tile(irid.VIEWS[None], (n, 1, 1))
+    base = rng.uniform(0.0, 0.3, (n, 3))
+    weight = rng.uniform(0.5, 1.0, n)
+    thickness = rng.choice(np.arange(200.0, 800.0, irid.THICKNESS_STEP_NM), n)
+    roughness = rng.choice(irid.ROUGHNESS_GRID[:4], n)
+    target = irid.glTF_reflectance(base, weight, thickness, light, views, roughness, 1.6)
+    fit = irid.fit_film(target, light, views, 1.6)
+    assert np.max(np.abs(fit.reflectance - target)) < 0.01
+    assert np.mean(np.abs(fit.thickness_nm - thickness) < 1.0) > 0.9
+    near = irid.fit_film(target, light, views, 1.6, prior_nm=thickness + 20.0)
+    assert np.all(np.abs(near.thickness_nm - thickness - 20.0) <= 30.0)
+    again = irid.fit_base(target, light, views, fit.weight, fit.thickness_nm, fit.roughness, 1.6)
+    assert np.allclose(again.base, fit.base, atol=0.01)
