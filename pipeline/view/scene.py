@@ -288,7 +288,7 @@ class _Materials:
         try:
             check_image(str(real))
         except InputError as exc:
-            raise InputError(str(file), f"{name} map: {exc.reason}") from None
+            raise InputError(str(file), f"{name} map: {exc.message}") from None
         except OSError as exc:
             raise InputError(str(file), f"{name} map: {exc.strerror or exc}") from None
         key = f"{len(self.files)}/{real.name}"

@@ -15,8 +15,8 @@ ends' diffraction, ``barbule.along_sigma``; ``α_y`` does not). Everything spect
 white diffuser reads 1 as in ``pavonine render``), tabulated per ocellar class ``k``, gradation
 step ``t`` and barbule axis. The shader (``static/feather.js``) multiplies the interpolated
 ``T`` by the achromatic rest, ``exp(−s_y²/α_y²)/(α_y π h_z⁴) · G / (4 cos θ_i cos θ_o)``, with
-Smith's ``G`` at :data:`G_WAVELENGTH_NM` (the one approximation: ``G`` is within a few per cent
-of 1 except at grazing angles). :func:`table_brdf_rgb` is that shader's formula in NumPy; the
+Smith's ``G`` at :data:`G_WAVELENGTH_NM` by Walter et al.'s rational fit (:func:`smith_g1_walter`;
+the approximations: ``G`` is within a few per cent of 1 except at grazing angles). :func:`table_brdf_rgb` is that shader's formula in NumPy; the
 tests hold it against the BRDF itself at sample angles.
 """
 
@@ -125,6 +125,16 @@ def build_table(params: FeatherParameters) -> BrdfTable:
     )
 
 
+def smith_g1_walter(w: np.ndarray, hdotw, alpha_x: float, alpha_y: float) -> np.ndarray:
+    """Beckmann Smith ``G1`` by the rational fit of Walter et al. 2007 (Eq. 27):
+    ``(3.535 a + 2.181 a²) / (1 + 2.276 a + 2.577 a²)`` for ``a < 1.6``, else 1, with ``a`` of
+    :func:`pavonine.materials.barbule.beckmann_smith_g1` (relative error below 0.4 %)."""
+    wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
+    a = wz / np.sqrt(np.maximum(wx * wx * alpha_x**2 + wy * wy * alpha_y**2, 1e-20))
+    fit = np.where(a >= 1.6, 1.0, (3.535 * a + 2.181 * a * a) / (1 + 2.276 * a + 2.577 * a * a))
+    return np.where((hdotw * wz > 0) & (wz > 0), fit, 0.0)
+
+
 def _lookup(table: BrdfTable, k: int, t: float, axis: int, theta_d, slope) -> np.ndarray:
     """Linear interpolation of ``T`` in gradation, θ_d and |s_x| (as the GPU's filtering does)."""
     v = table.values
@@ -132,7 +142,7 @@ def _lookup(table: BrdfTable, k: int, t: float, axis: int, theta_d, slope) -> np
     ft = np.clip(np.degrees(theta_d) / 90.0 * (v.shape[3] - 1), 0, v.shape[3] - 1)
     fs = np.clip(np.abs(slope) / table.slope_max * (v.shape[4] - 1), 0, v.shape[4] - 1)
 
-    g0 = min(int(math.floor(g)), v.shape[1] - 2)
+    g0 = min(math.floor(g), v.shape[1] - 2)
     wg = g - g0
     plane = (1 - wg) * v[k, g0, axis] + wg * v[k, g0 + 1, axis]  # (nθ, ns, 3)
     i0 = np.minimum(np.floor(ft).astype(int), v.shape[3] - 2)
@@ -163,10 +173,7 @@ def table_brdf_rgb(
     spectral = c * long + (1 - c) * short
     ay, ax = table.alpha_y, table.alpha_x_g
     rest = np.exp(-((sy / ay) ** 2)) / (ay * math.pi * hz**4)
-    g = barbule.beckmann_smith_g1(wi[..., 0], wi[..., 1], wi[..., 2], cos_d, ax, ay)
-    g = g * barbule.beckmann_smith_g1(
-        wo[..., 0], wo[..., 1], wo[..., 2], np.sum(wo * h, axis=-1), ax, ay
-    )
+    g = smith_g1_walter(wi, cos_d, ax, ay) * smith_g1_walter(wo, np.sum(wo * h, axis=-1), ax, ay)
     structural = spectral * (rest * g / (4.0 * wi[..., 2] * wo[..., 2]))[..., None]
     melanin = np.asarray(table.melanin_rgb) / math.pi
     return share * structural + (1.0 - share) * melanin

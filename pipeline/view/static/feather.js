@@ -54,18 +54,11 @@ uniform float classes, gradations, thetaSteps, slopeSteps, layers, slopeMax, alp
 uniform vec3 melaninRgb;
 const float FADE_T2 = 0.011054; // tan(6 deg)^2, brdf.ORIENTATION_FADE_DEG
 
-float smithG1(vec3 w, float hdotw) {  // barbule.beckmann_smith_g1
-  float xy = w.x * w.x * alphaXG * alphaXG + w.y * w.y * alphaY * alphaY;
-  float a = w.z / sqrt(max(xy, 1e-20));
+float smithG1(vec3 w, float hdotw) {
+  // Beckmann Smith G1 by Walter et al. 2007's rational fit (Eq. 27), tables.smith_g1_walter
   if (hdotw * w.z <= 0.0 || w.z <= 0.0) return 0.0;
-  if (a >= 6.0) return 1.0;
-  float as_ = max(a, 1e-6);
-  // erf by Abramowitz & Stegun 7.1.26 (|error| < 1.5e-7)
-  float t = 1.0 / (1.0 + 0.3275911 * as_);
-  float e = 1.0 - (((((1.061405429 * t - 1.453152027) * t) + 1.421413741) * t - 0.284496736) * t
-                   + 0.254829592) * t * exp(-as_ * as_);
-  float lambda = 0.5 * (e - 1.0) + exp(-as_ * as_) / (2.0 * as_ * 1.7724538509);
-  return 1.0 / (1.0 + lambda);
+  float a = w.z * inversesqrt(max(w.x * w.x * alphaXG * alphaXG + w.y * w.y * alphaY * alphaY, 1e-20));
+  return a >= 1.6 ? 1.0 : (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
 }
 
 vec3 spectral(float k, float t, float axis, float thetaD, float slope) {
