@@ -12,9 +12,11 @@ import json
 import os
 import re
 import shutil
+import signal
 import socket
 import struct
 import subprocess
+import sys
 import tempfile
 import time
 import urllib.request
@@ -33,6 +35,33 @@ CHROMIUM_FLAGS = (
     "--hide-scrollbars",
     "--mute-audio",
 )
+
+
+#: ``pavonine view`` as the tests start it.
+COMMAND = [sys.executable, "-m", "pavonine.pipeline.cli", "view"]
+
+
+def start_view(*args: str, timeout: float = 240.0) -> tuple[subprocess.Popen, str]:
+    """Start ``pavonine view ARGS``; the process and the URL it printed."""
+    process = subprocess.Popen(
+        [*COMMAND, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = process.stdout.readline()
+        if "http://" in line:
+            return process, line.split("at ", 1)[1].split()[0]
+        if not line and process.poll() is not None:
+            raise AssertionError(f"pavonine view exited: {process.stderr.read()}")
+    process.kill()
+    raise AssertionError("pavonine view printed no URL")
+
+
+def stop(process: subprocess.Popen) -> tuple[int, str]:
+    """Ctrl-C the server; its exit status and the rest of its stdout."""
+    process.send_signal(signal.SIGINT)
+    out, _ = process.communicate(timeout=30)
+    return process.returncode, out
 
 
 def chromium() -> str | None:

@@ -268,6 +268,7 @@ class _Materials:
         return {
             "kind": "feather",
             "table": f"/api/table/{len(self.tables) - 1}.bin",
+            "albedo": f"/api/albedo/{len(self.tables) - 1}.bin",
             "tableMeta": table.meta(),
             "maps": maps,
         }

@@ -6,7 +6,8 @@ closed list, looked up by name, never a path joined from the request:
 * ``/`` the page; ``/static/<name>`` the files of :data:`STATIC` (``static/`` in the package);
 * ``/api/scene.json?lod=…&geometry=…`` the stage read for those variant selections
   (:mod:`pavonine.pipeline.view.scene`), whose JSON names the URLs below;
-* ``/api/<key>/mesh/<i>.bin``, ``/api/<key>/table/<i>.bin`` its meshes and BRDF tables;
+* ``/api/<key>/mesh/<i>.bin``, ``/api/<key>/table/<i>.bin``, ``/api/<key>/albedo/<i>.bin``
+  its meshes, BRDF tables and their sky albedo;
 * ``/api/<key>/files/<n>/<name>`` the map files the stage's feather materials use (each inside
   the folder of the layer naming it; a symlink out of it is not served);
 * ``POST /api/render`` "render this view" (:mod:`pavonine.pipeline.view.viewpoint`): runs
@@ -164,7 +165,8 @@ class ViewHandler(BaseHTTPRequestHandler):
             mesh["url"] = f"{prefix}/mesh/{mesh['id']}.bin"
         for material in data["materials"]:
             if material["kind"] == "feather":
-                material["table"] = prefix + material["table"].removeprefix("/api")
+                for key in ("table", "albedo"):
+                    material[key] = prefix + material[key].removeprefix("/api")
                 material["maps"] = {k: prefix + v for k, v in material["maps"].items()}
         self._send(HTTPStatus.OK, json.dumps(data).encode(), "application/json")
 
@@ -174,13 +176,16 @@ class ViewHandler(BaseHTTPRequestHandler):
             return self._not_found()
         scene = scenes[key]
         kind, rest = parts[0], "/".join(parts[1:])
-        if kind in ("mesh", "table") and len(parts) == 2 and rest.endswith(".bin"):
+        if kind in ("mesh", "table", "albedo") and len(parts) == 2 and rest.endswith(".bin"):
             index = rest.removesuffix(".bin")
             items = scene.meshes if kind == "mesh" else scene.tables
             if not index.isdigit() or int(index) >= len(items):
                 return self._not_found()
             item = items[int(index)]
-            body = item.payload()[1] if kind == "mesh" else item.texture_bytes()
+            if kind == "mesh":
+                body = item.payload()[1]
+            else:
+                body = item.texture_bytes() if kind == "table" else item.albedo_bytes()
             return self._send(HTTPStatus.OK, body, "application/octet-stream")
         if kind == "files" and rest in scene.files:
             path = scene.files[rest]

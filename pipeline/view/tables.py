@@ -47,6 +47,12 @@ THETA_D_STEPS = 64
 #: |s_x| samples over [0, SLOPE_RANGE · max α_x].
 SLOPE_STEPS = 32
 SLOPE_RANGE = 3.5
+#: View angles of the directional-albedo table (the sky's share, :func:`sky_albedo`), over [0°, 90°].
+ALBEDO_VIEW_STEPS = 12
+#: Light directions of its cosine-weighted quadrature: (sin²θ, φ) midpoints.
+ALBEDO_GRID = (16, 32)
+#: View azimuths (relative to the barbule) it averages over.
+ALBEDO_AZIMUTHS_DEG = (0.0, 45.0, 90.0, 135.0)
 #: Wavelength of the α_x used in Smith's G (the one non-spectral factor).
 G_WAVELENGTH_NM = 550.0
 
@@ -56,6 +62,7 @@ class BrdfTable:
     """``values[k, t, axis, θ_d, s_x, rgb]`` (see the module docstring) and what the shader needs."""
 
     values: np.ndarray
+    albedo: np.ndarray  # [k, t, θ_o, rgb]: ∫ f_s cos θ_i dω_i (the uniform sky's share)
     slope_max: float
     alpha_x_g: float
     alpha_y: float
@@ -75,6 +82,7 @@ class BrdfTable:
             "alphaXG": self.alpha_x_g,
             "alphaY": self.alpha_y,
             "melaninRgb": list(self.melanin_rgb),
+            "albedoSteps": self.albedo.shape[2],
         }
 
     def texture_bytes(self) -> bytes:
@@ -82,6 +90,11 @@ class BrdfTable:
         texture: its linear filtering in z is the interpolation between gradation steps)."""
         values = np.moveaxis(self.values, 2, 0)
         rgba = np.concatenate([values, np.ones_like(values[..., :1])], axis=-1)
+        return np.ascontiguousarray(rgba, dtype="<f2").tobytes()
+
+    def albedo_bytes(self) -> bytes:
+        """RGBA half floats, x = θ_o, y = k·gradations + t (a 2D texture)."""
+        rgba = np.concatenate([self.albedo, np.ones_like(self.albedo[..., :1])], axis=-1)
         return np.ascontiguousarray(rgba, dtype="<f2").tobytes()
 
 
@@ -115,14 +128,54 @@ def build_table(params: FeatherParameters) -> BrdfTable:
                 spectra = r[:, None, :] * lobe[None, :, :]  # (nθ, ns, nλ)
                 values[k, g, axis] = colour.reflectance_to_linear_srgb(lam, spectra)
     melanin = colour.reflectance_to_linear_srgb(lam, melanin_albedo(params.melanin_color, lam))
-    return BrdfTable(
+    table = BrdfTable(
         values=values,
+        albedo=np.zeros((n, GRADATION_STEPS, ALBEDO_VIEW_STEPS, 3)),
         slope_max=slope_max,
         alpha_x_g=float(_alpha_x(constants, G_WAVELENGTH_NM)),
         alpha_y=barbule.SQRT2 * math.tan(constants.crescent_sigma),
         melanin_rgb=tuple(float(c) for c in melanin),
         classes=n,
     )
+    table.albedo[...] = sky_albedo(table)
+    return table
+
+
+def _hemisphere(rows: int, columns: int) -> np.ndarray:
+    """Cosine-weighted quadrature directions: midpoints in (sin²θ, φ), ``(rows·columns, 3)``."""
+    u = (np.arange(rows) + 0.5) / rows
+    phi = (np.arange(columns) + 0.5) / columns * 2.0 * math.pi
+    sin_t = np.sqrt(u)[:, None]
+    cos_t = np.sqrt(1.0 - u)[:, None]
+    d = np.stack(np.broadcast_arrays(sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t), -1)
+    return d.reshape(-1, 3)
+
+
+def sky_albedo(table: BrdfTable) -> np.ndarray:
+    """``A(k, t, θ_o) = ∫ f_s(ω_i, ω_o) cos θ_i dω_i`` of the tabulated structural BRDF (RGB),
+    averaged over :data:`ALBEDO_AZIMUTHS_DEG`: a uniform sky of radiance ``L`` adds ``L·A``.
+
+    Cosine-weighted quadrature, ``A = π · mean f`` over :func:`_hemisphere`'s directions."""
+    lights = _hemisphere(*ALBEDO_GRID)
+    theta = np.radians(np.linspace(0.0, 89.0, ALBEDO_VIEW_STEPS))
+    phi = np.radians(np.asarray(ALBEDO_AZIMUTHS_DEG))
+    views = np.stack(
+        np.broadcast_arrays(
+            np.sin(theta)[:, None] * np.cos(phi),
+            np.sin(theta)[:, None] * np.sin(phi),
+            np.cos(theta)[:, None],
+        ),
+        -1,
+    )  # (nθ, nφ, 3)
+    wi = np.broadcast_to(views[:, :, None, :], (*views.shape[:2], len(lights), 3))
+    wo = np.broadcast_to(lights, wi.shape)
+    n, g = table.values.shape[:2]
+    out = np.zeros((n, g, len(theta), 3))
+    for k in range(n):
+        for j, t in enumerate(np.linspace(0.0, 1.0, g)):
+            f = table_brdf_rgb(table, wi, wo, k, float(t))  # (nθ, nφ, nl, 3)
+            out[k, j] = math.pi * f.mean(axis=(1, 2))
+    return out
 
 
 def smith_g1_walter(w: np.ndarray, hdotw, alpha_x: float, alpha_y: float) -> np.ndarray:

@@ -50,6 +50,8 @@ in vec3 vBarb;
 uniform sampler3D brdf;
 uniform sampler2D ocellarMap;  // nearest, as the renderer reads it
 uniform sampler2D packedMaps;  // bilinear: gradation, angle, melanin, alpha
+uniform sampler2D albedoMap;   // tables.sky_albedo: x = view angle, y = class and gradation
+uniform float albedoSteps;
 uniform float classes, gradations, thetaSteps, slopeSteps, layers, slopeMax, alphaXG, alphaY;
 uniform vec3 melaninRgb;
 const float FADE_T2 = 0.011054; // tan(6 deg)^2, brdf.ORIENTATION_FADE_DEG
@@ -120,7 +122,12 @@ void main() {
   vec3 wo = vec3(dot(l, x), dot(l, y), dot(l, n));
   vec3 f = share * structural(wi, wo, k, t) + (1.0 - share) * melaninRgb / PI;
   radiance = f * sunIrradiance * max(wo.z, 0.0);
-  radiance += skyRadiance * (1.0 - share) * melaninRgb;
+  float viewAngle = acos(clamp(wi.z, 0.0, 1.0)) / radians(89.0);
+  vec2 at = vec2((min(viewAngle, 1.0) * (albedoSteps - 1.0) + 0.5) / albedoSteps,
+                 (k * gradations + clamp(t, 0.0, 1.0) * (gradations - 1.0) + 0.5)
+                     / (classes * gradations));
+  vec3 skyAlbedo = share * texture(albedoMap, at).rgb + (1.0 - share) * melaninRgb;
+  radiance += skyRadiance * skyAlbedo;
 #else
   if (dot(n, v) < 0.0) n = -n;
   radiance = baseColor / PI * sunIrradiance * max(dot(n, l), 0.0) + baseColor * skyRadiance;
@@ -173,6 +180,17 @@ export function packMaps(images) {
   return texture;
 }
 
+/** The 2D texture of a table's sky albedo (RGBA half floats from /api/<key>/albedo/<i>.bin). */
+export function albedoTexture(buffer, meta) {
+  const texture = new THREE.DataTexture(
+    new Uint16Array(buffer), meta.albedoSteps, meta.classes * meta.gradations, THREE.RGBAFormat,
+    THREE.HalfFloatType);
+  texture.minFilter = texture.magFilter = THREE.LinearFilter;
+  texture.wrapS = texture.wrapT = THREE.ClampToEdgeWrapping;
+  texture.needsUpdate = true;
+  return texture;
+}
+
 /** The 3D texture of a BRDF table (RGBA half floats from /api/<key>/table/<i>.bin). */
 export function brdfTexture(buffer, meta) {
   const depth = meta.axes * meta.classes * meta.gradations;
@@ -216,6 +234,8 @@ export function featherMaterial(entry, table, maps, instanced) {
       brdf: { value: table },
       ocellarMap: { value: maps.ocellar ? ocellarTexture(maps.ocellar) : blank },
       packedMaps: { value: maps.packed },
+      albedoMap: { value: maps.albedo },
+      albedoSteps: { value: meta.albedoSteps },
       classes: { value: meta.classes },
       gradations: { value: meta.gradations },
       thetaSteps: { value: meta.thetaSteps },

@@ -1,6 +1,8 @@
 // The stage as /api/scene.json describes it: meshes (binary buffers), materials, maps, tables.
 import * as THREE from './vendor/three.min.js';
-import { brdfTexture, featherMaterial, packMaps, previewMaterial } from './feather.js';
+import {
+  albedoTexture, brdfTexture, featherMaterial, packMaps, previewMaterial,
+} from './feather.js';
 
 async function fetchOk(url) {
   const response = await fetch(url);
@@ -34,13 +36,16 @@ function greyReader(image) {
 
 async function material(entry) {
   if (entry.kind !== 'feather') return { entry, make: (inst) => previewMaterial(entry, inst) };
-  const [table, ...images] = await Promise.all([
+  const [table, albedo, ...images] = await Promise.all([
     fetchOk(entry.table).then((r) => r.arrayBuffer()),
+    fetchOk(entry.albedo).then((r) => r.arrayBuffer()),
     ...Object.values(entry.maps).map(loadImage),
   ]);
   const named = Object.fromEntries(Object.keys(entry.maps).map((k, i) => [k, images[i]]));
   const texture = brdfTexture(table, entry.tableMeta);
-  const maps = { ocellar: named.ocellar, packed: packMaps(named) };
+  const maps = {
+    ocellar: named.ocellar, packed: packMaps(named), albedo: albedoTexture(albedo, entry.tableMeta),
+  };
   const readers = {};
   for (const name of ['ocellar', 'gradation', 'melanin']) {
     if (named[name]) readers[name] = greyReader(named[name]);
