@@ -23,6 +23,8 @@ from pavonine.pipeline.errors import InputError
 
 #: Variant sets the page offers (the asset's level of detail; barbs or sheet).
 VIEW_VARIANT_SETS = ("lod", "geometry")
+#: Per-instance feather primvars the renderer reads and the page does not (named in a warning).
+INSTANCE_PRIMVARS = ("pavonine:gradationOffset", "pavonine:structuralScale")
 #: Neutral grey for meshes without a preview colour.
 DEFAULT_COLOR = (0.18, 0.18, 0.18)
 
@@ -38,7 +40,8 @@ class MeshBuffers:
     index: np.ndarray
     feather_uv: np.ndarray | None = None
     barb: np.ndarray | None = None
-    instances: np.ndarray | None = None  # (n, 4, 4) column-vector matrices
+    instances: np.ndarray | None = None  # (n, 16): USD row-vector matrices, flattened
+    instance_feather: np.ndarray | None = None  # (n, 2): gradation offset, structural scale
 
     def payload(self) -> tuple[dict, bytes]:
         """``(layout, bytes)``: each array's byte offset and length in the binary buffer."""
@@ -49,6 +52,9 @@ class MeshBuffers:
             "uv": None if self.feather_uv is None else self.feather_uv.astype("<f4"),
             "barb": None if self.barb is None else self.barb.astype("<f4"),
             "instances": None if self.instances is None else self.instances.astype("<f4"),
+            "instanceFeather": None
+            if self.instance_feather is None
+            else self.instance_feather.astype("<f4"),
             "index": self.index.astype("<u4"),
         }
         for name, array in arrays.items():
@@ -429,11 +435,37 @@ def read_scene(path: str | os.PathLike, selections: dict[str, str] | None = None
     )
 
 
+def _instance_primvars(prim, warnings: list[str]) -> np.ndarray:
+    """Per instance ``(gradation offset, structural scale)``, as the renderer reads them
+    (:mod:`pavonine.render.instance_primvars`; neutral 0 and 1 where not authored)."""
+    from pxr import UsdGeom
+
+    count = len(UsdGeom.PointInstancer(prim).GetProtoIndicesAttr().Get() or [])
+    out = np.tile(np.array([0.0, 1.0]), (count, 1))
+    api = UsdGeom.PrimvarsAPI(prim)
+    for column, name in enumerate(INSTANCE_PRIMVARS):
+        pv = api.GetPrimvar(name)
+        if not pv or not pv.HasValue():
+            continue
+        values = np.asarray(pv.ComputeFlattened(), dtype=np.float64).ravel()
+        if pv.GetInterpolation() in ("constant", "uniform") and len(values) == 1:
+            out[:, column] = values[0]
+        elif len(values) == count:
+            out[:, column] = values
+        else:
+            warnings.append(
+                f"{prim.GetPath()}: primvars:{name} has {len(values)} values for "
+                f"{count} instances; not shown"
+            )
+    return out
+
+
 def _instancer(prim, cache, materials: _Materials, time) -> list[MeshBuffers]:
     """Each prototype mesh of a PointInstancer once, with the instances' world matrices."""
     from pxr import Usd, UsdGeom
 
     instancer = UsdGeom.PointInstancer(prim)
+    per_instance = _instance_primvars(prim, materials.warnings)
     xforms = np.asarray(instancer.ComputeInstanceTransformsAtTime(time, time), dtype=np.float64)
     indices = np.asarray(instancer.GetProtoIndicesAttr().Get() or [], dtype=np.int64)
     world = _world(cache, prim)
@@ -443,12 +475,15 @@ def _instancer(prim, cache, materials: _Materials, time) -> list[MeshBuffers]:
         proto = prim.GetStage().GetPrimAtPath(target)
         proto_world = _world(cache, proto)
         for sub in Usd.PrimRange(proto):
-            if not sub.IsA(UsdGeom.Mesh):
+            purpose = UsdGeom.Imageable(sub).ComputePurpose() if sub.IsA(UsdGeom.Imageable) else ""
+            if not sub.IsA(UsdGeom.Mesh) or purpose in (UsdGeom.Tokens.proxy, UsdGeom.Tokens.guide):
                 continue
             local = _world(cache, sub) @ np.linalg.inv(proto_world)
             material, feather = materials.of(sub)
             mesh = _mesh(sub, local, material, feather)
             if mesh is not None and len(chosen):
                 mesh.instances = chosen.reshape(-1, 16)  # = three.js column-major
+                if feather and len(per_instance) == len(indices):
+                    mesh.instance_feather = per_instance[indices == p]
                 out.append(mesh)
     return out

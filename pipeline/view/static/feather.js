@@ -16,13 +16,17 @@ out vec3 vBarb;
 #endif
 #ifdef INSTANCED
 in mat4 instanceMatrix;
+in vec2 instanceFeather;  // gradation offset, structural scale (1 when absent: see below)
 #endif
 out vec3 vWorld;
+out vec2 vFeather;
 out vec3 vNormal;
 void main() {
   mat4 m = modelMatrix;
+  vFeather = vec2(0.0, 1.0);
 #ifdef INSTANCED
   m = m * instanceMatrix;
+  vFeather = instanceFeather;
 #endif
   vec4 world = m * vec4(position, 1.0);
   vWorld = world.xyz;
@@ -43,6 +47,7 @@ uniform vec3 sunDirection, sunIrradiance, skyRadiance;
 uniform vec3 baseColor;
 in vec3 vWorld;
 in vec3 vNormal;
+in vec2 vFeather;
 out vec4 outColor;
 #ifdef FEATHER
 in vec2 vUv;
@@ -107,7 +112,9 @@ void main() {
   float grey = texture(ocellarMap, vUv).r;
   float k = clamp(floor((1.0 - grey) * (classes - 1.0) + 0.5), 0.0, classes - 1.0);
   vec4 maps = texture(packedMaps, vUv);
-  float t = maps.r, turn = maps.g * PI, share = maps.b;
+  // per-instance primvars as feather_bsdf.py applies them: t + offset, share × scale, clipped
+  float t = clamp(maps.r + vFeather.x, 0.0, 1.0), turn = maps.g * PI;
+  float share = clamp(maps.b * vFeather.y, 0.0, 1.0);
   alpha = maps.a;
   if (alpha < 0.004) discard;  // the gaps between barbs: nothing to shade
   // The barbule's long axis: the barb direction turned by the angle map about the normal

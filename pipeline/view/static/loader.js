@@ -82,6 +82,15 @@ export async function loadScene(selections) {
       object = new THREE.InstancedMesh(g, m.make(true), count);
       object.instanceMatrix.array.set(matrices);
       object.instanceMatrix.needsUpdate = true;
+      let feather;
+      if (mesh.layout.instanceFeather) {
+        const [offset, n] = mesh.layout.instanceFeather;
+        feather = new Float32Array(buffer, offset, n);
+      } else {
+        feather = new Float32Array(count * 2);
+        for (let i = 1; i < feather.length; i += 2) feather[i] = 1;  // offset 0, scale 1
+      }
+      g.setAttribute('instanceFeather', new THREE.InstancedBufferAttribute(feather, 2));
       object.computeBoundingSphere();
     } else {
       object = new THREE.Mesh(g, m.make(false));
