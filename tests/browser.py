@@ -20,6 +20,7 @@ import sys
 import tempfile
 import time
 import urllib.request
+from pathlib import Path
 from urllib.parse import urlsplit
 
 CHROMIUM_FLAGS = (
@@ -239,6 +240,110 @@ class Browser:
             shutil.rmtree(self.profile, ignore_errors=True)
 
     def __enter__(self) -> Browser:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def firefox() -> str | None:
+    """Firefox (ESR) on PATH, if any."""
+    return shutil.which("firefox-esr") or shutil.which("firefox")
+
+
+class Firefox:
+    """One Firefox with one page at ``url``, driven over WebDriver BiDi (a context manager).
+
+    Headless Firefox has no WebGL on a machine without a GPU; it runs windowed on the X display
+    in ``$DISPLAY`` (e.g. ``Xvfb``), where Mesa's llvmpipe gives it WebGL 2.
+    """
+
+    PREFS = (
+        'user_pref("webgl.force-enabled", true);\n'
+        'user_pref("webgl.disable-fail-if-major-performance-caveat", true);\n'
+    )
+
+    def __init__(self, url: str, width: int, height: int):
+        self.profile = tempfile.mkdtemp(prefix="pavonine-firefox-")
+        Path(self.profile, "user.js").write_text(self.PREFS)
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        self.process = subprocess.Popen(
+            [
+                firefox(),
+                "--remote-debugging-port",
+                str(port),
+                "--profile",
+                self.profile,
+                "--no-remote",
+                f"--window-size={width},{height}",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        deadline = time.monotonic() + 90
+        while "WebDriver BiDi listening" not in self.process.stderr.readline():
+            if time.monotonic() > deadline or self.process.poll() is not None:
+                raise RuntimeError("firefox did not start WebDriver BiDi")
+        self.ws = WebSocket(f"ws://127.0.0.1:{port}/session")
+        self.next_id = 0
+        self.call("session.new", capabilities={})
+        self.context = self.call("browsingContext.getTree")["contexts"][0]["context"]
+        self.call(
+            "browsingContext.setViewport",
+            context=self.context,
+            viewport={"width": width, "height": height},
+        )
+        self.call("browsingContext.navigate", context=self.context, url=url, wait="complete")
+
+    def call(self, method: str, **params):
+        self.next_id += 1
+        self.ws.send(json.dumps({"id": self.next_id, "method": method, "params": params}))
+        while True:
+            message = json.loads(self.ws.receive())
+            if message.get("id") == self.next_id:
+                if message.get("type") == "error":
+                    raise RuntimeError(f"{method}: {message.get('message')}")
+                return message.get("result", {})
+
+    def evaluate(self, expression: str, timeout_s: float = 300.0):
+        self.ws.sock.settimeout(timeout_s)
+        result = self.call(
+            "script.evaluate",
+            expression=expression,
+            target={"context": self.context},
+            awaitPromise=True,
+        )
+        if result.get("type") == "exception":
+            raise RuntimeError(f"page script failed: {result['exceptionDetails'].get('text')}")
+        return result["result"].get("value")
+
+    def wait_for(self, expression: str, timeout_s: float = 120.0) -> None:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                if self.evaluate(expression):
+                    return
+            except RuntimeError:
+                pass
+            time.sleep(0.2)
+        raise TimeoutError(expression)
+
+    def close(self) -> None:
+        try:
+            self.ws.close()
+        finally:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+            shutil.rmtree(self.profile, ignore_errors=True)
+
+    def __enter__(self) -> Firefox:
         return self
 
     def __exit__(self, *exc) -> None:

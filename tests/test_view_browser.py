@@ -24,7 +24,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from browser import Browser, chromium, start_view, stop
+from browser import Browser, Firefox, chromium, firefox, start_view, stop
 
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
@@ -196,3 +196,65 @@ def test_page_matches_pavonine_render_per_zone_in_three_views(view_server, tmp_p
         ]
         assert max(moved) > 3 * MAX_DELTA_E, (side, moved)
     assert frame_ms > 0
+
+
+def _xvfb():
+    """An X display for Firefox: ``$DISPLAY``, else a private Xvfb (None without either)."""
+    import os
+    import shutil
+    import subprocess
+
+    if os.environ.get("DISPLAY"):
+        return None, os.environ["DISPLAY"]
+    if shutil.which("Xvfb") is None:
+        return None, None
+    display = f":{90 + os.getpid() % 100}"
+    process = subprocess.Popen(
+        ["Xvfb", display, "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    return process, display
+
+
+@pytest.mark.skipif(firefox() is None, reason="no firefox-esr on PATH")
+def test_page_draws_the_same_in_firefox(view_server, tmp_path, monkeypatch):
+    """Firefox (windowed on Xvfb: headless Firefox has no WebGL without a GPU) draws the
+    face-on view as Chromium does: per zone within ΔE2000 2 of Chromium's frame."""
+    import time
+
+    from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
+
+    xvfb, display = _xvfb()
+    if display is None:
+        pytest.skip("no X display and no Xvfb for Firefox")
+    monkeypatch.setenv("DISPLAY", display)
+    time.sleep(1.0 if xvfb else 0.0)
+    try:
+        url = f"{view_server}?hud=0"
+        frames = {}
+        with Browser(url, WIDTH, HEIGHT) as chrome:
+            chrome.wait_for("window.pavonine !== undefined")
+            chrome.evaluate("window.pavonine.ready")
+            frames["chromium"] = _png(chrome.evaluate("window.pavonine.frame()"))
+            state = chrome.evaluate("window.pavonine.view()")
+            scene_camera = chrome.evaluate("fetch('/api/scene.json').then(r => r.json())")["camera"]
+        with Firefox(url, WIDTH, HEIGHT) as fox:
+            fox.wait_for("window.pavonine !== undefined")
+            fox.evaluate("window.pavonine.ready")
+            size = fox.evaluate("innerWidth + 'x' + innerHeight")  # BiDi: strings as they are
+            assert size == f"{WIDTH}x{HEIGHT}", size
+            frames["firefox"] = _png(fox.evaluate("window.pavonine.frame()"))
+    finally:
+        if xvfb is not None:
+            xvfb.terminate()
+            xvfb.wait()
+    zone = _zones({**state, "width": WIDTH, "height": HEIGHT, "spp": 1}, scene_camera, tmp_path)
+    worst = {}
+    for k in range(6):
+        mask = zone == k
+        if mask.sum() >= MIN_PIXELS:
+            a, b = (linear_srgb_to_lab(frames[n][mask].mean(axis=0)) for n in frames)
+            worst[k] = float(delta_e2000(a, b))
+    print(f"\nFirefox vs Chromium, ΔE2000 per zone: {worst}")
+    assert set(worst) >= {1, 2, 3, 4, 5} and max(worst.values()) < 2.0, worst
