@@ -214,7 +214,10 @@ window.pavonine = {
     renderer.render(world, camera);
     return canvas.toDataURL('image/png');
   },
-  benchmark(frames = 20) {
+  benchmark(frames = 20, flat = false) {
+    // flat: the yardstick, the same meshes in one unlit colour (what any viewer pays)
+    const saved = world.overrideMaterial;
+    if (flat) world.overrideMaterial = new THREE.MeshBasicMaterial({ color: 0x808080, side: THREE.DoubleSide });
     const gl = renderer.getContext();
     const pixel = new Uint8Array(4);
     renderer.render(world, camera);
@@ -226,8 +229,17 @@ window.pavonine = {
       renderer.render(world, camera);
       gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
     }
-    return (performance.now() - start) / frames;
+    const ms = (performance.now() - start) / frames;
+    world.overrideMaterial = saved;
+    return ms;
   },
   view: viewState,
   renderView,
+  orbit(degrees) {  // turn the camera about the vertical through the target
+    const offset = camera.position.clone().sub(controls.target);
+    offset.applyAxisAngle(new THREE.Vector3(0, 1, 0), (degrees * Math.PI) / 180);
+    camera.position.copy(controls.target).add(offset);
+    controls.update();
+    return camera.position.toArray();
+  },
 };
