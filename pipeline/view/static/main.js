@@ -183,7 +183,9 @@ async function renderView(width, height, spp) {
     if (!response.ok) throw new Error(await response.text());
     const blob = await response.blob();
     $('render-image').src = URL.createObjectURL(blob);
-    document.body.classList.add('rendered');
+    $('render-image').alt = `pavonine render ${w}×${h}`;
+    $('render-image').hidden = false;
+    $('render-hint').hidden = true;
     $('render-status').textContent = `pavonine render ${w}×${h}: ${((performance.now() - started) / 1000).toFixed(1)} s`;
     resize();
     return blob;
