@@ -137,7 +137,67 @@ class WebSocket:
         self.sock.close()
 
 
-class Browser:
+class _Page:
+    """What both browsers share: polling the page, and ending the browser and its profile."""
+
+    process: subprocess.Popen
+    profile: str
+    ws: WebSocket
+
+    next_id = 0
+
+    @staticmethod
+    def _failure(message: dict):
+        """The error an answer carries (the protocols differ), else ``None``."""
+        raise NotImplementedError
+
+    def call(self, method: str, **params):
+        """Send a command and wait for its answer (events in between are dropped)."""
+        self.next_id += 1
+        self.ws.send(json.dumps({"id": self.next_id, "method": method, "params": params}))
+        while True:
+            message = json.loads(self.ws.receive())
+            if message.get("id") == self.next_id:
+                failure = self._failure(message)
+                if failure is not None:
+                    raise RuntimeError(f"{method}: {failure}")
+                return message.get("result", {})
+
+    def evaluate(self, expression: str, timeout_s: float = 300.0):
+        raise NotImplementedError
+
+    def wait_for(self, expression: str, timeout_s: float = 120.0) -> None:
+        """Poll until ``expression`` is truthy in the page (it may not exist yet)."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                if self.evaluate(expression):
+                    return
+            except RuntimeError:
+                pass
+            time.sleep(0.2)
+        raise TimeoutError(expression)
+
+    def close(self) -> None:
+        try:
+            self.ws.close()
+        finally:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+            shutil.rmtree(self.profile, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class Browser(_Page):
     """One headless Chromium with one page at ``url`` (a context manager)."""
 
     def __init__(self, url: str, width: int, height: int, executable: str | None = None):
@@ -179,16 +239,9 @@ class Browser:
                 break
         raise RuntimeError("chromium did not start its DevTools server")
 
-    def call(self, method: str, **params):
-        """Send a DevTools command and wait for its answer (events in between are dropped)."""
-        self.next_id += 1
-        self.ws.send(json.dumps({"id": self.next_id, "method": method, "params": params}))
-        while True:
-            message = json.loads(self.ws.receive())
-            if message.get("id") == self.next_id:
-                if "error" in message:
-                    raise RuntimeError(f"{method}: {message['error']}")
-                return message.get("result", {})
+    @staticmethod
+    def _failure(message: dict):
+        return message.get("error")
 
     def size(self, width: int, height: int) -> None:
         self.call(
@@ -211,39 +264,9 @@ class Browser:
             raise RuntimeError(f"page script failed: {text}")
         return result["result"].get("value")
 
-    def wait_for(self, expression: str, timeout_s: float = 120.0) -> None:
-        """Poll until ``expression`` is truthy in the page (it may not exist yet)."""
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            try:
-                if self.evaluate(expression):
-                    return
-            except RuntimeError:
-                pass
-            time.sleep(0.2)
-        raise TimeoutError(expression)
-
     def screenshot(self) -> bytes:
         """The page as PNG bytes."""
         return base64.b64decode(self.call("Page.captureScreenshot", format="png")["data"])
-
-    def close(self) -> None:
-        try:
-            self.ws.close()
-        finally:
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-            shutil.rmtree(self.profile, ignore_errors=True)
-
-    def __enter__(self) -> Browser:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
 
 def firefox() -> str | None:
@@ -251,7 +274,7 @@ def firefox() -> str | None:
     return shutil.which("firefox-esr") or shutil.which("firefox")
 
 
-class Firefox:
+class Firefox(_Page):
     """One Firefox with one page at ``url``, driven over WebDriver BiDi (a context manager).
 
     Headless Firefox has no WebGL on a machine without a GPU; it runs windowed on the X display
@@ -298,15 +321,9 @@ class Firefox:
         )
         self.call("browsingContext.navigate", context=self.context, url=url, wait="complete")
 
-    def call(self, method: str, **params):
-        self.next_id += 1
-        self.ws.send(json.dumps({"id": self.next_id, "method": method, "params": params}))
-        while True:
-            message = json.loads(self.ws.receive())
-            if message.get("id") == self.next_id:
-                if message.get("type") == "error":
-                    raise RuntimeError(f"{method}: {message.get('message')}")
-                return message.get("result", {})
+    @staticmethod
+    def _failure(message: dict):
+        return message.get("message") if message.get("type") == "error" else None
 
     def evaluate(self, expression: str, timeout_s: float = 300.0):
         self.ws.sock.settimeout(timeout_s)
@@ -319,32 +336,3 @@ class Firefox:
         if result.get("type") == "exception":
             raise RuntimeError(f"page script failed: {result['exceptionDetails'].get('text')}")
         return result["result"].get("value")
-
-    def wait_for(self, expression: str, timeout_s: float = 120.0) -> None:
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            try:
-                if self.evaluate(expression):
-                    return
-            except RuntimeError:
-                pass
-            time.sleep(0.2)
-        raise TimeoutError(expression)
-
-    def close(self) -> None:
-        try:
-            self.ws.close()
-        finally:
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-            shutil.rmtree(self.profile, ignore_errors=True)
-
-    def __enter__(self) -> Firefox:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

@@ -104,12 +104,9 @@ class ViewScene:
 
 def stage_path(path: str | os.PathLike) -> Path:
     """The root layer to open: ``path``, or ``<folder>/<folder name>.usd`` for a folder."""
-    p = Path(path)
-    if p.is_dir():
-        p = p / f"{p.name}.usd"
-    if not p.is_file():
-        raise InputError(str(p), "no such USD file")
-    return p.resolve()
+    from pavonine.pipeline.bake.asset import root_layer_path
+
+    return root_layer_path(path).resolve()
 
 
 def open_stage(path: Path, selections: dict[str, str] | None = None):
