@@ -28,7 +28,7 @@ REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"
 
 #: Commands that print something other than a report (``env`` prints a shell line).
-NOT_REPORTING = {"env"}
+NOT_REPORTING = {"env", "view"}  # view: a server; what it prints is its URL
 
 
 def walk(group: click.Group = cli, path: tuple[str, ...] = ()) -> Iterator[tuple[str, ...]]:

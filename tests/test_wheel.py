@@ -107,6 +107,8 @@ def test_the_build_lists_every_data_folder_as_a_package(installed):
 
 
 def test_wheel_carries_the_shipped_data_and_the_licence(installed):
+    from pavonine.pipeline.view.server import STATIC as VIEW_STATIC
+
     wheel, _ = installed
     names = set(zipfile.ZipFile(wheel).namelist())
     for name in (
@@ -124,6 +126,9 @@ def test_wheel_carries_the_shipped_data_and_the_licence(installed):
         "pavonine/schemas/shaderDefs/ND_pavonine_feather_surfaceshader.usda",
         "pavonine/schemas/shaderDefs/ND_image_float.usda",
         "pavonine-0.1.0.dist-info/licenses/LICENSE",
+        # pavonine view's page and the vendored three.js with its licence (nothing fetched)
+        *(f"pavonine/pipeline/view/static/{n}" for n in VIEW_STATIC),
+        "pavonine/pipeline/view/static/vendor/LICENSE.three",
     ):
         assert name in names, name
     assert not [n for n in names if n.startswith(("tests/", "docs/", "benchmarks/"))]

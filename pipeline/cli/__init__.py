@@ -31,6 +31,7 @@ COMMANDS: dict[str, str] = {
     "package": "pavonine.pipeline.cli.package:package",
     "export": "pavonine.pipeline.cli.export:export",
     "assemble": "pavonine.pipeline.cli.assemble:assemble",
+    "view": "pavonine.pipeline.cli.view:view",
 }
 
 
