@@ -82,7 +82,10 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
     _check_aspects(path, maps, diag)
     plugin.register()
     _check_spectral(path)
-    bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
+    from pxr import UsdGeom
+
+    unit_um = UsdGeom.GetStageMetersPerUnit(material.GetPrim().GetStage()) * 1.0e6
+    bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True, world_unit_um=unit_um)
     attributes = {BARB_TANGENT: plugin.BARB_TANGENT_ATTRIBUTE}
     return MaterialSpec(
         path,
