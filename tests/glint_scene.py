@@ -1,8 +1,8 @@
 """A sunlit close-up of the shipped eye feather's ocellus, with glitter (issue 24's test scene).
 
-The camera looks straight down the vane normal from 3 cm, 8 mm beside the rachis, on a field
-``field_mm`` wide: at 128 pixels a pixel covers about 47 µm, two blocks along a barbule (25 µm)
-and two barbules across (20 µm). The sun (0.53°) comes from the right, ``sun_deg`` off the normal
+The camera looks straight down the vane normal from 3 cm at the edge of the ocellus's dark
+centre, on a field ``field_mm`` wide: at 128 pixels a pixel covers about 23 µm, about one block
+(25 µm long, 20 µm across). The sun (0.53°) comes from the right, ``sun_deg`` off the normal
 about the feather's vertical axis, as in ``assets/scenes/eye_feather_sun.usda``.
 """
 
@@ -24,9 +24,8 @@ def closeup_stage(
     glitter: float,
     *,
     sun_deg: float = 25.0,
-    field_mm: float = 6.0,
+    field_mm: float = 3.0,
     resolution: int = 128,
-    instance_seed: float | None = None,
     uv: bool = False,
 ) -> Path:
     """Write the close-up stage at ``path`` (referencing the shipped eye feather)."""
@@ -39,10 +38,6 @@ def closeup_stage(
     feather.GetReferences().AddReference(str(EYE))
     material = stage.OverridePrim("/World/Feather/Materials/Feather")
     material.CreateAttribute("pavonine:glitter", Sdf.ValueTypeNames.Float).Set(float(glitter))
-    if instance_seed is not None:
-        UsdGeom.PrimvarsAPI(feather).CreatePrimvar(
-            "pavonine:glitterSeed", Sdf.ValueTypeNames.Float, UsdGeom.Tokens.constant
-        ).Set(float(instance_seed))
     distance_cm = 3.0
     camera = UsdGeom.Camera.Define(stage, "/World/Camera")
     camera.CreateHorizontalApertureAttr(24.0)
