@@ -4,7 +4,9 @@
 Dr.Jit arrays, so in an ``llvm_*`` variant it is JIT-compiled with the rest of the integrator.
 Per shading point it reads four maps through Mitsuba textures at ``si.uv`` (data, raw):
 
-* ``ocellar``: grey g → class ``k = round((1 − g)(n − 1))`` (white = class 0 … black = class n−1)
+* ``ocellar``: grey g → class ``k = round((1 − g)(n − 1))`` (white = class 0 … black = class n−1),
+  the grey smoothed first and read bilinearly (:mod:`pavonine.materials.ocellus`), so ring
+  boundaries are smooth curves below the texel, not staircases of texels
 * ``gradation``: t ∈ [0, 1] between the class's black (0) and white (1) ends (Table 1)
 * ``angle``: grey g → barbule long axis at ``g · 180°`` counter-clockwise (seen from the front)
   from the barb direction: the mesh attribute ``vertex_barb_tangent`` when ``barb_tangents`` is
@@ -36,7 +38,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from pavonine.backend import select_variant
-from pavonine.materials import barbule, glitter
+from pavonine.materials import barbule, glitter, ocellus
 from pavonine.materials.brdf import (
     UM_TO_NM,
     MaterialConstants,
@@ -124,12 +126,28 @@ def decode_parameters(props) -> FeatherParameters:
     )
 
 
-def _bitmap(path: str, *, nearest: bool = False) -> dict:
+def _bitmap(path: str) -> dict:
     return {
         "type": "bitmap",
         "filename": str(path),
         "raw": True,
-        "filter_type": "nearest" if nearest else "bilinear",
+        "filter_type": "bilinear",
+        "wrap_mode": "clamp",
+    }
+
+
+def _class_bitmap(path: str) -> dict:
+    """The ocellar map as its smooth class field (:func:`ocellus.smooth_class_field`)."""
+    import mitsuba as mi
+
+    from pavonine.pipeline.maps.io import read_map
+
+    field = ocellus.smooth_class_field(read_map(path, "ocellar"))
+    return {
+        "type": "bitmap",
+        "data": mi.TensorXf(field[..., None]),
+        "raw": True,
+        "filter_type": "bilinear",
         "wrap_mode": "clamp",
     }
 
@@ -151,11 +169,10 @@ def feather_bsdf_dict(
     maps = dict(maps or {})
     bsdf: dict = {"type": PLUGIN_NAME, **encode_parameters(params.validate())}
     bsdf["barb_tangents"] = barb_tangents
-    if params.glitter > 0.0:
-        bsdf["world_unit_um"] = float(world_unit_um)
+    bsdf["world_unit_um"] = float(world_unit_um)
     for name in DATA_MAPS:
         if maps.get(name):
-            bsdf[name] = _bitmap(maps[name], nearest=name == "ocellar")
+            bsdf[name] = _class_bitmap(maps[name]) if name == "ocellar" else _bitmap(maps[name])
     if maps.get("displacement"):
         bsdf = {
             "type": "bumpmap",

@@ -27,6 +27,7 @@ def closeup_stage(
     field_mm: float = 3.0,
     resolution: int = 128,
     uv: bool = False,
+    glitter_seed: int | None = None,
 ) -> Path:
     """Write the close-up stage at ``path`` (referencing the shipped eye feather)."""
     stage = Usd.Stage.CreateNew(str(path))
@@ -38,6 +39,8 @@ def closeup_stage(
     feather.GetReferences().AddReference(str(EYE))
     material = stage.OverridePrim("/World/Feather/Materials/Feather")
     material.CreateAttribute("pavonine:glitter", Sdf.ValueTypeNames.Float).Set(float(glitter))
+    if glitter_seed is not None:
+        material.CreateAttribute("pavonine:glitterSeed", Sdf.ValueTypeNames.Int).Set(glitter_seed)
     distance_cm = 3.0
     camera = UsdGeom.Camera.Define(stage, "/World/Camera")
     camera.CreateHorizontalApertureAttr(24.0)
