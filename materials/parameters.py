@@ -198,10 +198,12 @@ class FeatherParameters:
     crescent_sigma_deg: float = 15.0  # θ0 of Eq. 6, across the barbule
     block_sigma_deg: float = 8.0  # spread along the barbule (saddle blocks), not given by the paper
     rod_length_um: float = 5.0  # "several µm": diffraction at rod ends, along the barbule
-    glitter: float = 0.0  # 0 smooth average over blocks, 1 discrete blocks (materials/glitter.py)
-    glitter_seed: int = 0  # the asset's seed of the block tilts
-    block_length_um: float = 25.0  # blocks "typically 20-30 µm" long (paper §2.1)
-    barbule_width_um: float = 20.0  # spacing of barbules across their axis, not given by the paper
+    # Discrete barbule blocks (materials/glitter.py). Not in the repr: the repr is the digest
+    # that tells baked textures stale, and a bake (the smooth average) is the same for any glitter.
+    glitter: float = field(default=0.0, repr=False)  # 0 smooth average over blocks, 1 discrete
+    glitter_seed: int = field(default=0, repr=False)  # the asset's seed of the block tilts
+    block_length_um: float = field(default=25.0, repr=False)  # "typically 20-30 µm" (§2.1)
+    barbule_width_um: float = field(default=20.0, repr=False)  # not given by the paper
     interference: str = "paper"  # Eq. 3/4 as printed (|Σ|/N), "intensity" (|Σ|²/N²), "physical"
     melanin_color: tuple[float, float, float] = field(default=(0.22, 0.12, 0.06))  # linear sRGB
     lattice: str = "staggered"  # physical mode: rod layers "staggered" or "rectangular"

@@ -251,3 +251,30 @@ def test_instances_with_their_own_seed_glint_differently():
     assert np.array_equal(eval_as(1), plain)
     seven, eight = eval_as(2), eval_as(3)
     assert not np.allclose(seven, plain, rtol=0.05) and not np.allclose(seven, eight, rtol=0.05)
+
+
+def test_glitter_round_trips_through_usd_and_leaves_bakes_fresh():
+    """The four attributes are written and read back; a layer without them reads glitter 0; the
+    bake digest ignores them (a bake is the smooth average, the same for any glitter)."""
+    from pxr import Usd, UsdShade
+
+    from pavonine.schemas import authoring
+
+    params = TABLE1.with_(glitter=0.75, glitter_seed=9, block_length_um=22.0, barbule_width_um=18.0)
+    stage = Usd.Stage.CreateInMemory()
+    material = UsdShade.Material.Define(stage, "/M")
+    authoring.author_parameters(material.GetPrim(), params)
+    back = authoring.read_feather_parameters(material)
+    assert (back.glitter, back.glitter_seed, back.block_length_um, back.barbule_width_um) == (
+        0.75,
+        9,
+        22.0,
+        18.0,
+    )
+    for name, _ in authoring.GLITTER_ATTRS.values():
+        material.GetPrim().RemoveProperty(name)
+    assert authoring.read_feather_parameters(material).glitter == 0.0
+    assert authoring.parameters_digest(params) == authoring.parameters_digest(TABLE1)
+    assert authoring.parameters_digest(TABLE1.with_(block_sigma_deg=9.0)) != (
+        authoring.parameters_digest(TABLE1)
+    )
