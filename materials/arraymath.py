@@ -26,9 +26,20 @@ class NumpyOps:
     minimum = staticmethod(np.minimum)
     select = staticmethod(np.where)
     erf = staticmethod(special.erf)
+    log = staticmethod(np.log)
 
     @staticmethod
     def asarray(x: Any) -> np.ndarray:
+        return np.asarray(x, dtype=np.float64)
+
+    @staticmethod
+    def to_uint32(x: Any) -> np.ndarray:
+        """Whole numbers (floats) as unsigned 32-bit values, negatives wrapped (held in ``uint64``
+        so that the hashes' products do not overflow)."""
+        return (np.asarray(x, dtype=np.float64).astype(np.int64) & 0xFFFFFFFF).astype(np.uint64)
+
+    @staticmethod
+    def to_float(x: Any) -> np.ndarray:
         return np.asarray(x, dtype=np.float64)
 
     @staticmethod
@@ -57,12 +68,24 @@ class DrJitOps:
         self.minimum = dr.minimum
         self.select = dr.select
         self.erf = dr.erf
+        self.log = dr.log
+        self.jit = dr.is_jit_v(mi.Float)
+        self.Int32 = mi.Int32
 
         # A table to gather from: the dynamic array of the variant (scalar variants' Float is a
         # plain Python float, so their tables are ``dr.scalar.ArrayXf``).
         self.Buffer = mi.Float if dr.is_jit_v(mi.Float) else dr.scalar.ArrayXf
 
     def asarray(self, x: Any):
+        return self.Float(x)
+
+    def to_uint32(self, x):
+        """Whole numbers (``Float``) as ``UInt32``, negatives wrapped."""
+        if self.jit:
+            return self.dr.reinterpret_array(self.UInt32, self.Int32(x))
+        return int(x) & 0xFFFFFFFF
+
+    def to_float(self, x):
         return self.Float(x)
 
     def buffer(self, values: Any):

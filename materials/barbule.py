@@ -93,6 +93,26 @@ def beckmann_ndf(hx: Any, hy: Any, hz: Any, alpha_x: Any, alpha_y: Any, ops: Any
     return ops.select(hz > 0.0, value, 0.0)
 
 
+def shifted_beckmann_ndf(
+    hx: Any, hy: Any, hz: Any, alpha_x: Any, alpha_y: Any, slope_x: Any, ops: Any = NUMPY
+) -> Any:
+    """Beckmann ``D(h)`` of a microsurface whose mean slope along ``x`` is ``slope_x`` (one block).
+
+    The Beckmann slope density ``P₂₂(x̃, ỹ) = exp(−x̃²/α_x² − ỹ²/α_y²) / (π α_x α_y)`` shifted to
+    ``x̃ − slope_x``, with ``(x̃, ỹ) = (−h_x/h_z, −h_y/h_z)`` and ``D = P₂₂ / h_z⁴`` (Heitz 2014,
+    Eq. 8 and 79): still ``∫ D(h) h_z dω = 1``; ``slope_x = 0`` is :func:`beckmann_ndf`. The mean
+    normal of the block is ``∝ (−slope_x, 0, 1)``.
+    """
+    hz2 = hz * hz
+    safe = ops.maximum(hz2, 1e-12)
+    inv_z = 1.0 / ops.maximum(hz, 1e-6)
+    sx = -hx * inv_z - slope_x
+    sy = hy * inv_z
+    exponent = -(sx * sx / (alpha_x * alpha_x) + sy * sy / (alpha_y * alpha_y))
+    value = ops.exp(exponent) / (math.pi * alpha_x * alpha_y * safe * safe)
+    return ops.select(hz > 0.0, value, 0.0)
+
+
 def beckmann_smith_g1(
     wx: Any, wy: Any, wz: Any, hdotw: Any, alpha_x: Any, alpha_y: Any, ops: Any = NUMPY
 ) -> Any:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from pavonine.materials import barbule, layers, rod
+from pavonine.materials import barbule, glitter, layers, rod
 from pavonine.materials.arraymath import NUMPY, bilinear_gather
 from pavonine.materials.parameters import FeatherParameters, LayerStack
 from pavonine.materials.stack import StackTable
@@ -77,6 +77,7 @@ class MaterialConstants:
     block_sigma: float  # radians
     rod_length_nm: float
     interference: str
+    glitter: float = 0.0  # share of the along-barbule spread that is between blocks
 
     @classmethod
     def from_parameters(cls, params: FeatherParameters) -> MaterialConstants:
@@ -87,6 +88,7 @@ class MaterialConstants:
             block_sigma=math.radians(params.block_sigma_deg),
             rod_length_nm=params.rod_length_um * UM_TO_NM,
             interference=params.interference,
+            glitter=params.glitter,
         )
 
 
@@ -144,11 +146,15 @@ def structural_brdf(
     long_stack: tuple[Any, Any, Any],
     short_stack: tuple[Any, Any, Any],
     ops: Any = NUMPY,
+    block_slope: Any = None,
 ) -> Any:
     """Structural-colour BRDF (1/sr) in the barbule frame; stacks are ``(interval_nm, radius_nm, count)``.
 
     Two-sided: light from below the vane is treated as the mirror image from above. Zero when
-    ``ω_i`` and ``ω_o`` lie on opposite sides.
+    ``ω_i`` and ``ω_o`` lie on opposite sides. ``block_slope``: the mean slope offset of the block
+    the point lies on (:mod:`pavonine.materials.glitter`); ``None`` (or glitter 0) is the smooth
+    average over blocks. Masking is the whole microsurface's (Smith G of the smooth lobe), so the
+    average over blocks is exactly the smooth BRDF.
     """
     flip = ops.select(wi[2] < 0.0, -1.0, 1.0)
     ix, iy, iz = wi[0], wi[1], wi[2] * flip
@@ -171,7 +177,12 @@ def structural_brdf(
     )
     alpha_x = barbule.beckmann_alpha(sigma_x, ops)
     alpha_y = barbule.SQRT2 * math.tan(constants.crescent_sigma)
-    d = barbule.beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, ops)
+    if block_slope is None or constants.glitter == 0.0:
+        d = barbule.beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, ops)
+    else:
+        _, within = glitter.slope_split(constants.glitter, constants.block_sigma, sigma_x, ops)
+        lobe_x = barbule.SQRT2 * within
+        d = barbule.shifted_beckmann_ndf(hx, hy, hz, lobe_x, alpha_y, block_slope, ops)
     g = barbule.beckmann_smith_g1(ix, iy, iz, cos_d, alpha_x, alpha_y, ops)
     g = g * barbule.beckmann_smith_g1(
         ox, oy, oz, ox * hx + oy * hy + oz * hz, alpha_x, alpha_y, ops
@@ -192,10 +203,11 @@ def feather_brdf(
     structural_share: Any,
     melanin_albedo: Any,
     ops: Any = NUMPY,
+    block_slope: Any = None,
 ) -> Any:
     """Full BRDF (1/sr): ``w f_structural + (1 − w) ρ_melanin / π`` (paper §3.3.6), two-sided."""
     structural = structural_brdf(
-        constants, table, wi, wo, wavelength_nm, long_stack, short_stack, ops
+        constants, table, wi, wo, wavelength_nm, long_stack, short_stack, ops, block_slope
     )
     same_side = wi[2] * wo[2] > 0.0
     diffuse = ops.select(same_side, melanin_albedo * (1.0 / math.pi), 0.0)
@@ -268,8 +280,16 @@ class FeatherModel:
             return tuple((self.table.entry(ocellar_class, axis), t) for axis in (0, 1))
         return stack_in_nm(long_stack), stack_in_nm(short_stack)
 
-    def structural(self, wi, wo, wavelength_nm, ocellar_class: int = 0, gradation: float = 0.0):
-        """Structural-colour BRDF only (1/sr)."""
+    def structural(
+        self,
+        wi,
+        wo,
+        wavelength_nm,
+        ocellar_class: int = 0,
+        gradation: float = 0.0,
+        block_slope=None,
+    ):
+        """Structural-colour BRDF only (1/sr); ``block_slope`` as in :func:`structural_brdf`."""
         wi, wo = np.asarray(wi, float), np.asarray(wo, float)
         long_stack, short_stack = self.stacks_nm(ocellar_class, gradation)
         return structural_brdf(
@@ -280,6 +300,7 @@ class FeatherModel:
             np.asarray(wavelength_nm, float),
             long_stack,
             short_stack,
+            block_slope=block_slope,
         )
 
     def brdf(
@@ -290,8 +311,9 @@ class FeatherModel:
         ocellar_class: int = 0,
         gradation: float = 0.0,
         structural_share: float = 1.0,
+        block_slope=None,
     ) -> np.ndarray:
-        """Full BRDF (1/sr), melanin mix included."""
+        """Full BRDF (1/sr), melanin mix included; ``block_slope`` as in :func:`structural_brdf`."""
         wi, wo = np.asarray(wi, float), np.asarray(wo, float)
         wavelength_nm = np.asarray(wavelength_nm, float)
         long_stack, short_stack = self.stacks_nm(ocellar_class, gradation)
@@ -305,6 +327,7 @@ class FeatherModel:
             short_stack,
             structural_share,
             melanin_albedo(self.params.melanin_color, wavelength_nm),
+            block_slope=block_slope,
         )
 
 

@@ -27,7 +27,7 @@ uses only MaterialX standard nodes, so any MaterialX renderer shows the feather'
    ``tangent`` input (the barb direction) turned by ``barbule_angle · 180°`` (the angle map's grey)
    counter-clockwise about ``normal``; a host bumps ``normal`` with the displacement map.
 
-Layer counts, rod length and the interference mode are carried for renderers that implement the
+Layer counts, rod length, the interference mode and the glitter inputs are carried for renderers that implement the
 full model (``pavonine render``); a single thin film cannot express them, so the graph ignores them.
 """
 
@@ -79,6 +79,14 @@ SCALAR_INPUTS: dict[str, tuple[str, Any, str]] = {
         "Rod-layer optics: paper | intensity | physical (full model only).",
     ),
     "melanin_color": ("color3", (0.22, 0.12, 0.06), "Linear sRGB melanin-brown albedo."),
+    "glitter": (
+        "float",
+        0.0,
+        "0 = smooth average over barbule blocks, 1 = discrete blocks that glint (full model only).",
+    ),
+    "glitter_seed": ("integer", 0, "Seed of the blocks' tilts (full model only)."),
+    "block_length": ("float", 25.0, "Block length along the barbule, um (full model only)."),
+    "barbule_width": ("float", 20.0, "Barbule spacing across its axis, um (full model only)."),
     "structural": ("float", 1.0, "Share of structural colour, from the melanin map."),
     "opacity": ("float", 1.0, "Opacity, from the alpha map."),
 }
@@ -121,6 +129,10 @@ def input_values(params, ocellar: float = 1.0, gradation: float = 0.0) -> dict[s
         rod_length=float(params.rod_length_um),
         interference=str(params.interference),
         melanin_color=tuple(float(c) for c in params.melanin_color),
+        glitter=float(params.glitter),
+        glitter_seed=int(params.glitter_seed),
+        block_length=float(params.block_length_um),
+        barbule_width=float(params.barbule_width_um),
         structural=1.0,
         opacity=1.0,
     )

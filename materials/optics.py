@@ -174,12 +174,17 @@ def reflectance_spectra(
     azimuth_deg: float = 90.0,
     structural_share: float = 1.0,
     wavelengths_nm: np.ndarray = PLOT_WAVELENGTHS_NM,
+    barbule_tilt_deg: float = 0.0,
+    barbule_twist_deg: float = 0.0,
 ) -> np.ndarray:
     """Reflectance factor ``π f(ω_i, ω_o, λ)`` (relative to a perfect white diffuser), shape (n_obs, n_λ).
 
     In-plane geometry as in the paper's Figure 5: the light at ``incidence_deg`` and the observer at
     ``observe_deg`` on the opposite side of the vane normal (negative = same side as the light), in
     the plane at ``azimuth_deg`` from the barbule's long axis (90° = across the barbule).
+    ``barbule_tilt_deg`` inclines the barbule's long axis out of the vane (a rotation about its
+    across axis), ``barbule_twist_deg`` turns it about its long axis (the barbule's macro-geometry,
+    §2.1: "curved along their length and slightly twisted at the root").
     """
     wavelengths = check_wavelengths(wavelengths_nm)
     incidence = check_angle("incidence", incidence_deg)
@@ -190,10 +195,23 @@ def reflectance_spectra(
         if not 0.0 <= value <= 1.0:  # also rejects NaN
             raise ParameterError(name, f"must lie in [0, 1], got {value}")
     model = model_for(params)
-    wi = direction(incidence, azimuth_deg)
-    wo = direction(observe, azimuth_deg + 180.0)[:, None, :]
+    frame = barbule_frame(barbule_tilt_deg, barbule_twist_deg)
+    wi = direction(incidence, azimuth_deg) @ frame
+    wo = (direction(observe, azimuth_deg + 180.0) @ frame)[:, None, :]
     f = model.brdf(wi, wo, wavelengths[None, :], ocellar_class, gradation, structural_share)
     return math.pi * f
+
+
+def barbule_frame(tilt_deg: float = 0.0, twist_deg: float = 0.0) -> np.ndarray:
+    """Columns: the tilted, twisted barbule's axes (long, across, normal) in vane coordinates;
+    ``v @ frame`` takes a vane-frame direction into the barbule frame."""
+    for name, value in (("barbule_tilt", tilt_deg), ("barbule_twist", twist_deg)):
+        if not (math.isfinite(value) and abs(value) <= 60.0):
+            raise ParameterError(name, f"must lie in [-60, 60] degrees, got {value}")
+    t, w = math.radians(tilt_deg), math.radians(twist_deg)
+    tilt = np.array([[math.cos(t), 0, -math.sin(t)], [0, 1, 0], [math.sin(t), 0, math.cos(t)]])
+    twist = np.array([[1, 0, 0], [0, math.cos(w), -math.sin(w)], [0, math.sin(w), math.cos(w)]])
+    return tilt @ twist
 
 
 @dataclass(frozen=True)

@@ -198,6 +198,12 @@ class FeatherParameters:
     crescent_sigma_deg: float = 15.0  # θ0 of Eq. 6, across the barbule
     block_sigma_deg: float = 8.0  # spread along the barbule (saddle blocks), not given by the paper
     rod_length_um: float = 5.0  # "several µm": diffraction at rod ends, along the barbule
+    # Discrete barbule blocks (materials/glitter.py). Not in the repr: the repr is the digest
+    # that tells baked textures stale, and a bake (the smooth average) is the same for any glitter.
+    glitter: float = field(default=0.0, repr=False)  # 0 smooth average over blocks, 1 discrete
+    glitter_seed: int = field(default=0, repr=False)  # the asset's seed of the block tilts
+    block_length_um: float = field(default=25.0, repr=False)  # "typically 20-30 µm" (§2.1)
+    barbule_width_um: float = field(default=20.0, repr=False)  # not given by the paper
     interference: str = "paper"  # Eq. 3/4 as printed (|Σ|/N), "intensity" (|Σ|²/N²), "physical"
     melanin_color: tuple[float, float, float] = field(default=(0.22, 0.12, 0.06))  # linear sRGB
     lattice: str = "staggered"  # physical mode: rod layers "staggered" or "rectangular"
@@ -211,6 +217,9 @@ class FeatherParameters:
             "crescent_sigma_deg",
             "block_sigma_deg",
             "rod_length_um",
+            "glitter",
+            "block_length_um",
+            "barbule_width_um",
         ):
             object.__setattr__(self, name, f32(getattr(self, name)))
         object.__setattr__(self, "melanin_color", tuple(f32(c) for c in self.melanin_color))
@@ -235,6 +244,16 @@ class FeatherParameters:
             if value > upper:
                 raise ParameterError(name, f"must be at most {upper} degrees, got {value}")
         check_finite_positive("rod_length_um", self.rod_length_um)
+        if not (isinstance(self.glitter, float) and 0.0 <= self.glitter <= 1.0):
+            raise ParameterError("glitter", f"must lie in [0, 1], got {self.glitter}")
+        if isinstance(self.glitter_seed, bool) or not isinstance(self.glitter_seed, int):
+            raise ParameterError("glitter_seed", f"expected an integer, got {self.glitter_seed!r}")
+        if not 0 <= self.glitter_seed <= 0x7FFFFFFF:
+            raise ParameterError(
+                "glitter_seed", f"must lie in [0, 2147483647], got {self.glitter_seed}"
+            )
+        check_finite_positive("block_length_um", self.block_length_um)
+        check_finite_positive("barbule_width_um", self.barbule_width_um)
         if self.interference not in INTERFERENCE_MODES:
             raise ParameterError(
                 "interference", f"must be one of {INTERFERENCE_MODES}, got {self.interference!r}"

@@ -4,7 +4,9 @@
 Dr.Jit arrays, so in an ``llvm_*`` variant it is JIT-compiled with the rest of the integrator.
 Per shading point it reads four maps through Mitsuba textures at ``si.uv`` (data, raw):
 
-* ``ocellar``: grey g → class ``k = round((1 − g)(n − 1))`` (white = class 0 … black = class n−1)
+* ``ocellar``: grey g → class ``k = round((1 − g)(n − 1))`` (white = class 0 … black = class n−1),
+  the grey smoothed first and read bilinearly (:mod:`pavonine.materials.ocellus`), so ring
+  boundaries are smooth curves below the texel, not staircases of texels
 * ``gradation``: t ∈ [0, 1] between the class's black (0) and white (1) ends (Table 1)
 * ``angle``: grey g → barbule long axis at ``g · 180°`` counter-clockwise (seen from the front)
   from the barb direction: the mesh attribute ``vertex_barb_tangent`` when ``barb_tangents`` is
@@ -17,8 +19,14 @@ ocellar class index, gradation t, share w, barbule angle in degrees. A bound twi
 map, and is read on the hit instance's own mesh (as the barb tangent is, below).
 
 Per-instance primvars (``pavonine:gradationOffset`` added to t, ``pavonine:structuralScale``
-multiplying w) are gathered per lane from tables bound after the scene is built
-(:mod:`pavonine.render.instance_primvars`).
+multiplying w, ``pavonine:glitterSeed`` mixed into the blocks' seed) are gathered per lane from
+tables bound after the scene is built (:mod:`pavonine.render.instance_primvars`).
+
+With ``glitter`` > 0 each shading point lies on one barbule block (:mod:`pavonine.materials.glitter`)
+whose tilt offsets its lobe: the block comes from the feather coordinate ``si.uv`` scaled to µm by
+the surface's ``|dp/du|``, ``|dp/dv|`` and ``world_unit_um`` (µm per scene unit), turned into the
+barbule axis. Glossy sampling then draws the block's shifted Beckmann slopes (all normals, not
+only the visible ones); at ``glitter`` 0 nothing of this runs and the BSDF is the smooth one.
 
 The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
 detail); :func:`feather_bsdf_dict` builds that nesting. Sampling: visible normals of the
@@ -35,7 +43,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from pavonine.backend import select_variant
-from pavonine.materials import barbule
+from pavonine.materials import barbule, glitter, ocellus
 from pavonine.materials.brdf import (
     UM_TO_NM,
     MaterialConstants,
@@ -58,6 +66,8 @@ PRIMVAR_SLOTS = {name: f"{name}_primvar" for name in DATA_MAPS}
 #: Per-instance frame table: world→instance 3×4 (row-major) then instance→world linear 3×3.
 INSTANCE_FRAME = "instance_frame"
 FRAME_FLOATS = 21
+#: Micrometres per scene unit unless told (Pavonine's assets: centimetres).
+WORLD_UNIT_UM = 1.0e4
 _IDENTITY_FRAME = (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0)
 
 
@@ -85,6 +95,10 @@ def encode_parameters(params: FeatherParameters) -> dict:
         rod_length_um=params.rod_length_um,
         interference=params.interference,
         melanin_color=",".join(repr(c) for c in params.melanin_color),
+        glitter=params.glitter,
+        glitter_seed=params.glitter_seed,
+        block_length_um=params.block_length_um,
+        barbule_width_um=params.barbule_width_um,
     )
     return props
 
@@ -111,15 +125,35 @@ def decode_parameters(props) -> FeatherParameters:
         rod_length_um=float(props["rod_length_um"]),
         interference=str(props["interference"]),
         melanin_color=tuple(float(c) for c in str(props["melanin_color"]).split(",")),
+        glitter=float(props.get("glitter", 0.0)),
+        glitter_seed=int(props.get("glitter_seed", 0)),
+        block_length_um=float(props.get("block_length_um", glitter.BLOCK_LENGTH_UM)),
+        barbule_width_um=float(props.get("barbule_width_um", glitter.BARBULE_WIDTH_UM)),
     )
 
 
-def _bitmap(path: str, *, nearest: bool = False) -> dict:
+def _bitmap(path: str) -> dict:
     return {
         "type": "bitmap",
         "filename": str(path),
         "raw": True,
-        "filter_type": "nearest" if nearest else "bilinear",
+        "filter_type": "bilinear",
+        "wrap_mode": "clamp",
+    }
+
+
+def _class_bitmap(path: str) -> dict:
+    """The ocellar map as its smooth class field (:func:`ocellus.smooth_class_field`)."""
+    import mitsuba as mi
+
+    from pavonine.pipeline.maps.io import read_map
+
+    field = ocellus.smooth_class_field(read_map(path, "ocellar"))
+    return {
+        "type": "bitmap",
+        "data": mi.TensorXf(field[..., None]),
+        "raw": True,
+        "filter_type": "bilinear",
         "wrap_mode": "clamp",
     }
 
@@ -130,18 +164,21 @@ def feather_bsdf_dict(
     *,
     bump_scale: float = 0.002,
     barb_tangents: bool = False,
+    world_unit_um: float = WORLD_UNIT_UM,
 ) -> dict:
     """A ``mi.load_dict`` description of the feather material with its maps (missing = uniform).
 
     ``barb_tangents``: read the barb direction from the mesh attribute ``vertex_barb_tangent``
     (every mesh using the material must carry it); otherwise the barb runs along ``dp/du``.
+    ``world_unit_um``: micrometres per scene unit (the blocks of ``glitter`` are sized in µm).
     """
     maps = dict(maps or {})
     bsdf: dict = {"type": PLUGIN_NAME, **encode_parameters(params.validate())}
     bsdf["barb_tangents"] = barb_tangents
+    bsdf["world_unit_um"] = float(world_unit_um)
     for name in DATA_MAPS:
         if maps.get(name):
-            bsdf[name] = _bitmap(maps[name], nearest=name == "ocellar")
+            bsdf[name] = _class_bitmap(maps[name]) if name == "ocellar" else _bitmap(maps[name])
     if maps.get("displacement"):
         bsdf = {
             "type": "bumpmap",
@@ -227,8 +264,9 @@ class JitMaterial:
             return [(self.table.entry(ocellar_class, axis), gradation) for axis in (0, 1)]
         return gather_stacks(self.class_tables, ocellar_class, gradation, self.ops)
 
-    def brdf(self, wi, wo, wavelength_nm, long_stack, short_stack, share):
-        """BRDF (1/sr, no cosine) per lane for barbule-frame ``mi.Vector3f`` directions."""
+    def brdf(self, wi, wo, wavelength_nm, long_stack, short_stack, share, block_slope=None):
+        """BRDF (1/sr, no cosine) per lane for barbule-frame ``mi.Vector3f`` directions
+        (``block_slope``: the lane's block, :func:`pavonine.materials.brdf.structural_brdf`)."""
         albedo = srgb_model_eval(self.melanin_coefficients, wavelength_nm, self.ops)
         return feather_brdf(
             self.constants,
@@ -241,6 +279,7 @@ class JitMaterial:
             share,
             albedo,
             self.ops,
+            block_slope,
         )
 
 
@@ -271,6 +310,18 @@ def _plugin_class(variant: str):
                     )
                 )
             )
+            self.glitter = float(self.constants.glitter)
+            self.world_unit_um = float(props.get("world_unit_um", WORLD_UNIT_UM))
+            if self.glitter > 0.0:
+                sampling_sigma = barbule.along_sigma(
+                    self.constants.block_sigma,
+                    self.constants.rod_length_nm,
+                    SAMPLING_WAVELENGTH_NM,
+                )
+                _, within = glitter.slope_split(
+                    self.glitter, self.constants.block_sigma, sampling_sigma
+                )
+                self.block_alpha_x = float(barbule.SQRT2 * within)
             lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
             sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
             self.m_components = [
@@ -391,7 +442,37 @@ def _plugin_class(variant: str):
             share = self._map("melanin", si, active)
             scale = self._per_instance("structural_scale", si, active)
             share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
-            return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share
+            block = self._block_slope(si, angle, active) if self.glitter > 0.0 else None
+            return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, block
+
+        def _block_slope(self, si, angle, active):
+            """The slope offset of the block under ``si`` (:mod:`pavonine.materials.glitter`).
+
+            On the vane sheet the block comes from the feather coordinate ``si.uv`` in µm
+            (``u |dp/du|``, ``v |dp/dv|``) in the frame of the barbule axis ``angle`` (radians
+            from ``dp/du`` in the shading frame). A barb ribbon would pass its own coordinate
+            (along the barb → barbule, across the ribbon → block) and its barb index in the seed
+            here instead.
+            """
+            ops = self.material.ops
+            scale = self.world_unit_um
+            u_um = si.uv.x * dr.norm(si.dp_du) * scale
+            v_um = si.uv.y * dr.norm(si.dp_dv) * scale
+            flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
+            along, across, step = glitter.sheet_coordinates(
+                u_um, v_um, dr.select(flip, -angle, angle), ops
+            )
+            barbule_index, block_index = glitter.block_cell(
+                along, across, self.params.block_length_um, self.params.barbule_width_um, ops
+            )
+            seed = self.params.glitter_seed
+            instance = self._per_instance("glitter_seed", si, active)
+            if instance is not None:
+                seed = seed ^ ops.to_uint32(instance)
+            seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
+            return glitter.block_slope(
+                self.glitter, self.constants.block_sigma, barbule_index, block_index, seed, ops
+            )
 
         @staticmethod
         def _to_barbule(v, c, s):
@@ -403,23 +484,41 @@ def _plugin_class(variant: str):
 
         def _brdf(self, si, wi, wo, state, active):
             """Spectral BRDF value (no cosine) for barbule-frame directions."""
-            _, _, long_stack, short_stack, share = state
+            _, _, long_stack, short_stack, share, block = state
             out = [
-                self.material.brdf(wi, wo, si.wavelengths[k], long_stack, short_stack, share)
+                self.material.brdf(wi, wo, si.wavelengths[k], long_stack, short_stack, share, block)
                 for k in range(len(si.wavelengths))
             ]
             return mi.Spectrum(out)
 
-        def _lobe_pdf(self, wi, wo, share):
+        def _lobe_pdf(self, wi, wo, share, block=None):
             """Mixture density of the two sampling strategies (barbule frame, upper hemisphere)."""
-            distr = mi.MicrofacetDistribution(
-                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
-            )
             m = dr.normalize(wi + wo)
-            glossy = distr.pdf(wi, m) / (4.0 * dr.abs(dr.dot(wo, m)))
+            if block is None:
+                distr = mi.MicrofacetDistribution(
+                    mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+                )
+                glossy = distr.pdf(wi, m) / (4.0 * dr.abs(dr.dot(wo, m)))
+            else:
+                glossy = self._block_normal_pdf(m, block) / (4.0 * dr.abs(dr.dot(wo, m)))
             diffuse = mi.warp.square_to_cosine_hemisphere_pdf(wo)
             pdf = share * dr.select(dr.dot(wo, m) > 0, glossy, 0.0) + (1.0 - share) * diffuse
             return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
+
+        def _block_normal_pdf(self, m, block):
+            """Density (per solid angle) of the block's normals: its shifted Beckmann ``D(m) m_z``."""
+            d = barbule.shifted_beckmann_ndf(
+                m.x, m.y, m.z, self.block_alpha_x, self.alpha_y, block, self.material.ops
+            )
+            return d * m.z
+
+        def _sample_block_normal(self, sample2, block):
+            """A normal of the block's slope distribution (Box–Muller on ``sample2``)."""
+            radius = dr.sqrt(-2.0 * dr.log(dr.maximum(1.0 - sample2.x, 1e-30)))
+            phi = 2.0 * dr.pi * sample2.y
+            slope_x = block + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
+            slope_y = self.alpha_y * barbule.SQRT2 * 0.5 * radius * dr.sin(phi)
+            return dr.normalize(mi.Vector3f(-slope_x, -slope_y, 1.0))
 
         def _upper(self, si, wo, state):
             """Both directions in the barbule frame, mirrored to the upper side when lit from below."""
@@ -439,7 +538,7 @@ def _plugin_class(variant: str):
         def pdf(self, ctx, si, wo, active=True):
             state = self._point(si, active)
             wi_b, wo_b = self._upper(si, wo, state)
-            return dr.select(active, self._lobe_pdf(wi_b, wo_b, state[4]), 0.0)
+            return dr.select(active, self._lobe_pdf(wi_b, wo_b, state[4], state[5]), 0.0)
 
         def eval_pdf(self, ctx, si, wo, active=True):
             state = self._point(si, active)
@@ -447,7 +546,7 @@ def _plugin_class(variant: str):
             ok = active & (wi_b.z > 0) & (wo_b.z > 0)
             value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
             return dr.select(ok, value, 0.0), dr.select(
-                ok, self._lobe_pdf(wi_b, wo_b, state[4]), 0.0
+                ok, self._lobe_pdf(wi_b, wo_b, state[4], state[5]), 0.0
             )
 
         def sample(self, ctx, si, sample1, sample2, active=True):
@@ -456,17 +555,23 @@ def _plugin_class(variant: str):
             sign = dr.select(si.wi.z < 0, -1.0, 1.0)
             wi_b = self._to_barbule(si.wi, c, s)
             wi_b = mi.Vector3f(wi_b.x, wi_b.y, wi_b.z * sign)
-            distr = mi.MicrofacetDistribution(
-                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
-            )
             glossy = sample1 < share
-            m, _ = distr.sample(wi_b, sample2)
+            block = state[5]
+            if block is None:
+                distr = mi.MicrofacetDistribution(
+                    mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+                )
+                m, _ = distr.sample(wi_b, sample2)
+            else:
+                m = self._sample_block_normal(sample2, block)
             wo_glossy = mi.reflect(wi_b, m)
             wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
             wo_b = dr.select(glossy, wo_glossy, wo_diffuse)
-            pdf = self._lobe_pdf(wi_b, wo_b, share)
+            pdf = self._lobe_pdf(wi_b, wo_b, share, block)
             value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
             ok = active & (wi_b.z > 0) & (wo_b.z > 0) & (pdf > 0)
+            if block is not None:
+                ok &= ~glossy | (dr.dot(wi_b, m) > 0.0)
 
             bs = dr.zeros(mi.BSDFSample3f)
             wo_local = self._from_barbule(wo_b, c, s)

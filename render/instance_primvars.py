@@ -35,6 +35,9 @@ warning naming them:
 ``pavonine:structuralScale`` (float, neutral 1)
     multiplies the melanin map's structural share ``w`` (clipped to [0, 1]): < 1 is a browner,
     worn feather.
+``pavonine:glitterSeed`` (float holding a whole number, neutral 0)
+    mixed into the material's ``pavonine:glitterSeed``: with glitter the instances' barbule
+    blocks tilt differently, so two instances do not sparkle alike.
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ class InstancePrimvar:
 FEATHER_PRIMVARS: dict[str, InstancePrimvar] = {
     "pavonine:gradationOffset": InstancePrimvar("gradation_offset", 0.0),
     "pavonine:structuralScale": InstancePrimvar("structural_scale", 1.0),
+    "pavonine:glitterSeed": InstancePrimvar("glitter_seed", 0.0),
 }
 PER_INSTANCE = ("vertex", "varying")
 

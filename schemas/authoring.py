@@ -74,6 +74,14 @@ SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
     "interference": ("pavonine:interference", Sdf.ValueTypeNames.Token),
     "melanin_color": ("pavonine:melaninColor", Sdf.ValueTypeNames.Color3f),
 }
+#: Discrete barbule blocks (``pavonine.materials.glitter``): FeatherParameters field ->
+#: (schema attribute, value type). Optional on reading: layers written before them mean glitter 0.
+GLITTER_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
+    "glitter": ("pavonine:glitter", Sdf.ValueTypeNames.Float),
+    "glitter_seed": ("pavonine:glitterSeed", Sdf.ValueTypeNames.Int),
+    "block_length_um": ("pavonine:blockLength", Sdf.ValueTypeNames.Float),
+    "barbule_width_um": ("pavonine:barbuleWidth", Sdf.ValueTypeNames.Float),
+}
 #: Scalars only the physical mode reads (not mirrored on the MaterialX nodedef).
 PHYSICAL_SCALAR_ATTRS: dict[str, tuple[str, Sdf.ValueTypeName]] = {
     "lattice": ("pavonine:rodLattice", Sdf.ValueTypeNames.Token),
@@ -139,7 +147,7 @@ def author_parameters(prim: Usd.Prim, params: FeatherParameters) -> None:
         rows = arrays[key]
         value = [Gf.Vec2f(float(b), float(w)) for b, w in rows] if rows.any() else []
         prim.CreateAttribute(name, Sdf.ValueTypeNames.Float2Array, custom=False).Set(value)
-    for field, (name, vtype) in {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.items():
+    for field, (name, vtype) in {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS, **GLITTER_ATTRS}.items():
         value = getattr(params, field)
         if vtype == Sdf.ValueTypeNames.Color3f:
             value = Gf.Vec3f(*value)
@@ -230,6 +238,10 @@ def read_feather_parameters(material: Usd.Prim | UsdShade.Material) -> FeatherPa
         else:
             value = float(value)
         scalars[field] = value
+    for field, (name, vtype) in GLITTER_ATTRS.items():
+        value = _typed_value(prim, name, vtype)
+        if value is not None:
+            scalars[field] = int(value) if field == "glitter_seed" else float(value)
     n_classes = next(iter(lengths.values()))
     for key, name in STRUCTURE_ATTRS.items():
         value = _typed_value(prim, name, Sdf.ValueTypeNames.Float2Array)
@@ -267,7 +279,7 @@ def attribute_of_field(field: str) -> str:
         return field
     match = _FIELD.fullmatch(field)
     if not match:
-        scalar = {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS}.get(field)
+        scalar = {**SCALAR_ATTRS, **PHYSICAL_SCALAR_ATTRS, **GLITTER_ATTRS}.get(field)
         if scalar is not None:
             return scalar[0]
         return _NAMED_FIELDS.get(field.split(".")[0], f"pavonine:{field}")

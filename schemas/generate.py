@@ -89,6 +89,10 @@ def fallback_values() -> dict[str, object]:
     out["pavonine:crescentSigma"] = defaults.crescent_sigma_deg
     out["pavonine:blockSigma"] = defaults.block_sigma_deg
     out["pavonine:rodLength"] = defaults.rod_length_um
+    out["pavonine:glitter"] = defaults.glitter
+    out["pavonine:glitterSeed"] = defaults.glitter_seed
+    out["pavonine:blockLength"] = defaults.block_length_um
+    out["pavonine:barbuleWidth"] = defaults.barbule_width_um
     out["pavonine:interference"] = defaults.interference
     out["pavonine:melaninColor"] = Gf.Vec3f(*defaults.melanin_color)
     out["pavonine:rodLattice"] = defaults.lattice

@@ -160,3 +160,16 @@ def test_the_train_renders_and_its_per_instance_variation_shows(train, tmp_path)
     # the feather pixels changes by more than 5 %.
     change = np.abs(varied - plain).sum(axis=2) / np.maximum(plain.sum(axis=2), 1e-3)
     assert np.mean(change[feather] > 0.05) > 0.1, np.mean(change[feather] > 0.05)
+
+
+def test_every_instance_has_its_own_glitter_seed():
+    """Per-instance glitter seeds (``pavonine:glitterSeed``): distinct, exact as float32, the
+    same for the same recipe, drawn outside the jitter stream (positions do not depend on it)."""
+    from pavonine.pipeline.assemble.fan import instance_seeds
+
+    recipe = parse_train_recipe(RECIPE)
+    seeds = layout(recipe).glitter_seed
+    assert len(np.unique(seeds)) == len(seeds) == recipe.feather_count
+    assert np.all(seeds < 2**24) and np.array_equal(seeds.astype(np.float32), seeds)
+    assert np.array_equal(seeds, instance_seeds(recipe.seed, recipe.feather_count))
+    assert not np.array_equal(seeds, instance_seeds(recipe.seed + 1, recipe.feather_count))

@@ -7,7 +7,7 @@ import dataclasses
 import pytest
 
 from pavonine.materials.parameters import freyer_class, preset
-from pavonine.pipeline.convert.recipe import GeometryOptions, LodTargets, parse_recipe
+from pavonine.pipeline.convert.recipe import GeometryOptions, LodTargets, asset_seed, parse_recipe
 from pavonine.pipeline.errors import InputError
 
 MINIMAL = """\
@@ -44,7 +44,9 @@ def test_minimal_recipe_takes_documented_defaults(tmp_path):
     assert recipe.name == "eye_feather"
     assert recipe.version == "1.0"
     assert recipe.maps["alpha"] == (tmp_path / "m" / "alpha.png").resolve()  # relative to recipe
-    assert recipe.material == preset("paper-table1")
+    # The asset's glitter seed, unless the recipe names one, is a hash of its name.
+    assert recipe.material == preset("paper-table1").with_(glitter_seed=asset_seed("eye_feather"))
+    assert recipe.material.glitter == 0.0 and recipe.material.glitter_seed == 1254071087
     assert recipe.geometry == GeometryOptions()
     assert recipe.geometry.lod == LodTargets(100_000, 25_000, 5_000)
 
@@ -89,6 +91,9 @@ def test_unknown_keys_are_rejected_naming_file_and_key(tmp_path, before, after, 
         ("[material.class.1.short]\nradius = -0.05\n", "material.class.1.short.radius", "positive"),
         ("crescent_sigma_deg = nan\n", "material.crescent_sigma_deg", "finite"),
         ("block_sigma_deg = 80.0\n", "material.block_sigma_deg", "at most"),
+        ("glitter = 1.5\n", "material.glitter", "[0, 1]"),
+        ("glitter_seed = 2.5\n", "material.glitter_seed", "integer"),
+        ("block_length_um = 0\n", "material.block_length_um", "positive"),
         ("[material.class.7.long]\ncount = 3\n", "material.class.7", "unknown class"),
         # rods that overlap (pi*a > 2d) are unphysical: ParameterError mapped to the recipe key
         ("[material.class.0.long]\nradius = 0.2\n", "material.class.0.long.radius", "overlap"),
@@ -104,6 +109,13 @@ def test_bad_values_name_the_key(tmp_path, extra, key, words):
     error = _error(tmp_path, MINIMAL + extra)
     assert key in str(error)
     assert words in str(error)
+
+
+def test_glitter_keys_reach_the_material(tmp_path):
+    text = MINIMAL + "glitter = 1.0\nglitter_seed = 77\nbarbule_width_um = 18.0\n"
+    material = parse_recipe(_write(tmp_path, text)).material
+    assert (material.glitter, material.glitter_seed, material.barbule_width_um) == (1.0, 77, 18.0)
+    assert material.block_length_um == 25.0
 
 
 def test_missing_map_key_unknown_preset_and_bad_toml(tmp_path):

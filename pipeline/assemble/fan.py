@@ -12,6 +12,8 @@ to the right), its base on the row's circle. Its transform, applied to the compo
 only its depth, which is exactly the sagitta of its bend and cup (``P_z = −bend·v² − cup·(2u−1)²``),
 so a jittered curvature needs no new geometry. Every jitter and variation is drawn uniformly
 from one ``numpy.random.default_rng(seed)``, in a fixed order: the same recipe gives the same fan.
+Each feather's glitter seed (``pavonine:glitterSeed``, so that no two sparkle alike) is a hash of
+the recipe's seed and its index, drawn outside that stream (adding it moved no other value).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ class Fan:
     gradation_offset: np.ndarray  # (N,)
     structural_scale: np.ndarray  # (N,)
     row: np.ndarray  # (N,) row index (for the layout plot)
+    glitter_seed: np.ndarray | None = None  # (N,) whole numbers below 2**24 (exact as float32)
 
     def __len__(self) -> int:
         return len(self.proto_indices)
@@ -126,4 +129,13 @@ def layout(recipe: TrainRecipe) -> Fan:
         gradation,
         structural,
         p["row"].astype(np.int32),
+        instance_seeds(recipe.seed, count),
     )
+
+
+def instance_seeds(seed: int, count: int) -> np.ndarray:
+    """Per-instance glitter seeds: ``lowbias32(seed ⊕ lowbias32(i))`` kept to 24 bits."""
+    from pavonine.materials.glitter import lowbias32
+
+    index = lowbias32(np.arange(count, dtype=np.uint64))
+    return (lowbias32(index ^ np.uint64(seed & 0xFFFFFFFF)) & 0xFFFFFF).astype(np.float64)

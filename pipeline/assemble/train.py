@@ -4,8 +4,9 @@ Layout of ``OUTDIR/NAME/``::
 
     NAME.usda          /NAME: Xform, kind = assembly, assetInfo, metersPerUnit 0.01, upAxis Y
                        /NAME/Feathers: PointInstancer; protoIndices, positions, orientations,
-                       scales, ids, extent; primvars:pavonine:gradationOffset and
-                       primvars:pavonine:structuralScale (float[], vertex: one per instance)
+                       scales, ids, extent; primvars:pavonine:gradationOffset,
+                       primvars:pavonine:structuralScale and primvars:pavonine:glitterSeed
+                       (float[], vertex: one per instance)
                        /NAME/Feathers/Prototypes/<component>: Xform referencing the component
                        asset with its ``lod`` variant selected (the recipe's ``lod``)
     NAME_layout.png    the fan seen from the front: every feather's base and tip by prototype,
@@ -35,6 +36,7 @@ INSTANCER = "Feathers"
 PRIMVARS = {
     "pavonine:gradationOffset": "gradation_offset",
     "pavonine:structuralScale": "structural_scale",
+    "pavonine:glitterSeed": "glitter_seed",
 }
 
 

@@ -129,6 +129,8 @@ OPTION_OF_FIELD = {
     "observe": "--observe",
     "azimuth": "--azimuth",
     "structural_share": "--structural-share",
+    "barbule_tilt": "--barbule-tilt",
+    "barbule_twist": "--barbule-twist",
     "interference": "--interference",
 }
 
@@ -213,6 +215,20 @@ def _errors_name_options(command):
     show_default=True,
     help="Melanin map value.",
 )
+@click.option(
+    "--barbule-tilt",
+    type=FiniteFloat(),
+    default=0.0,
+    show_default=True,
+    help="Barbule long axis inclined out of the vane by this many degrees (macro-geometry).",
+)
+@click.option(
+    "--barbule-twist",
+    type=FiniteFloat(),
+    default=0.0,
+    show_default=True,
+    help="Barbule turned about its long axis by this many degrees (macro-geometry).",
+)
 @output_option(
     folder=True,
     help=f"Folder for the PNG and CSV [default: {DEFAULT_OUTPUT}; none under --json - without -o].",
@@ -233,6 +249,8 @@ def spectra(
     observe,
     azimuth,
     structural_share,
+    barbule_tilt,
+    barbule_twist,
     output,
     json_target,
     display,
@@ -256,6 +274,8 @@ def spectra(
         gradation=gradation,
         azimuth_deg=azimuth,
         structural_share=structural_share,
+        barbule_tilt_deg=barbule_tilt,
+        barbule_twist_deg=barbule_twist,
     )
     if output is None and json_to_stdout():  # a report on stdout only: write no files
         summaries = optics.summarise(params, incidence, observe_deg, **kwargs)

@@ -105,6 +105,10 @@ _MATERIAL_SCALARS = {
     "interference": str,
     "lattice": str,
     "melanin_color": list,
+    "glitter": float,
+    "glitter_seed": int,
+    "block_length_um": float,
+    "barbule_width_um": float,
 }
 #: Dispersive materials of the physical mode: recipe key -> (field, Dispersion parts), [a, b] each.
 _DISPERSION_KEYS = {
@@ -343,6 +347,8 @@ def _parse_material(path: Path, table: dict) -> tuple[FeatherParameters, str]:
         dotted = f"material.{key}"
         if kind is float:
             changes[key] = float(_number(path, dotted, value, positive=False))
+        elif kind is int:
+            changes[key] = int(_number(path, dotted, value, positive=False, integer=True))
         elif kind is str:
             if not isinstance(value, str):
                 raise _fail(path, dotted, f"expected a string, got {value!r}")
@@ -450,11 +456,21 @@ def parse_recipe(path: str | os.PathLike) -> Recipe:
     if not isinstance(material_table, dict):
         raise _fail(path, "material", "expected a table [material]")
     params, preset_name = _parse_material(path, material_table)
+    if "glitter_seed" not in material_table:
+        params = params.with_(glitter_seed=asset_seed(name))
     geometry_table = data.get("geometry", {})
     if not isinstance(geometry_table, dict):
         raise _fail(path, "geometry", "expected a table [geometry]")
     geometry = _parse_geometry(path, geometry_table)
     return Recipe(path, name, maps, params, geometry, version, preset_name, _parse_bake(path, data))
+
+
+def asset_seed(name: str) -> int:
+    """The glitter seed of an asset whose recipe names none: CRC-32 of its name (31 bits), so
+    that two assets do not sparkle alike and one asset always sparkles the same."""
+    import zlib
+
+    return zlib.crc32(name.encode("utf-8")) & 0x7FFFFFFF
 
 
 def _parse_bake(path: Path, data: dict) -> BakeOptions:

@@ -101,7 +101,8 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
     _check_aspects(path, maps, diag)
     plugin.register()
     _check_spectral(path)
-    bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
+    unit_um = UsdGeom.GetStageMetersPerUnit(material.GetPrim().GetStage()) * 1.0e6
+    bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True, world_unit_um=unit_um)
     net = Network(path, time, diag)
     core = _feather_node(bsdf)
     for name, primvar in INPUT_PRIMVARS.items():
