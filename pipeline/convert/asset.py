@@ -167,8 +167,9 @@ def write_material_layer(
     ``pavonine.schemas.authoring.create_feather_material``), with ``looks`` (a
     :class:`pavonine.pipeline.shading.looks.Looks`) its MaterialX network, baked preview and
     portable twin; the rachis material; and every mesh's binding, for ``Geom`` and ``Proxy``.
-    With ``barbs``: also the barbs' binding (the feather material; preview purpose: their
-    ``displayColor``, :func:`pavonine.pipeline.convert.barb_layer.author_barbs_preview`)."""
+    With ``barbs``: also the barbs' preview material (their ``displayColor``,
+    :func:`pavonine.pipeline.convert.barb_layer.author_barbs_preview`), bound by the root layer's
+    ``barbs`` variant."""
     from pxr import Gf, Sdf, UsdGeom, UsdShade
 
     import pavonine  # noqa: F401  (registers the schema plugin before USD builds its registry)
@@ -209,10 +210,9 @@ def write_material_layer(
             preview = materials.get(PREVIEW_MATERIALS.get(mesh, ""))
             bind(prim, materials[material], preview)
     if barbs:
-        from pavonine.pipeline.convert.barb_layer import BARBS, BARBS_PREVIEW, author_barbs_preview
+        from pavonine.pipeline.convert.barb_layer import BARBS_PREVIEW, author_barbs_preview
 
-        preview = author_barbs_preview(stage, materials_path.AppendChild(BARBS_PREVIEW))
-        bind(stage.OverridePrim(f"/{name}/{GEOM}/{BARBS}"), materials["Feather"], preview)
+        author_barbs_preview(stage, materials_path.AppendChild(BARBS_PREVIEW))
     stage.GetRootLayer().Save()
 
 
@@ -262,17 +262,28 @@ def write_root_layer(
 
 def _author_geometry_variants(prim, names: AssetNames) -> None:
     """The ``geometry`` variant set: ``sheet`` as the ``lod`` variants make it, ``barbs`` with the
-    barbs' layer payloaded and the sheet's vane deactivated (the rachis stays)."""
-    from pxr import Sdf
+    barbs' layer payloaded, bound (the feather material; preview purpose: their displayColor)
+    and the sheet's vane deactivated (the rachis stays). Nothing of the barbs is in ``sheet``."""
+    from pxr import UsdShade
 
+    from pavonine.pipeline.convert.barb_layer import BARBS, BARBS_PREVIEW
+    from pavonine.pipeline.shading.usd import bind
+
+    stage = prim.GetStage()
+    base = prim.GetPath()
     variant_set = prim.GetVariantSets().AddVariantSet("geometry")
     for variant in GEOMETRY_VARIANTS:
         variant_set.AddVariant(variant)
     variant_set.SetVariantSelection("barbs")
     with variant_set.GetVariantEditContext():
         prim.GetPayloads().AddPayload(f"./{names.barbs}")
-        vane = prim.GetStage().OverridePrim(prim.GetPath().AppendPath(Sdf.Path(f"{GEOM}/Vane")))
-        vane.SetActive(False)
+        stage.OverridePrim(base.AppendPath(f"{GEOM}/Vane")).SetActive(False)
+        materials = base.AppendChild("Materials")
+        bind(
+            stage.OverridePrim(base.AppendPath(f"{GEOM}/{BARBS}")),
+            UsdShade.Material(stage.GetPrimAtPath(materials.AppendChild("Feather"))),
+            UsdShade.Material(stage.GetPrimAtPath(materials.AppendChild(BARBS_PREVIEW))),
+        )
     variant_set.SetVariantSelection(GEOMETRY_VARIANTS[0])
 
 

@@ -55,6 +55,10 @@ MIN_RACHIS_ANGLE_DEG = 8.0
 #: Agreement ``|cos|`` of the measured barb direction with the ray from the rachis tip above
 #: which the barbs radiate from the tip (within about 30°).
 RADIAL_AGREEMENT = 0.85
+#: Radius around the rachis tip, in barb spacings, where the measured direction is a blur of
+#: every direction: the radial zone is the part connected to this disc, and a tip barb crosses
+#: it before the zone's edge can end it.
+TIP_SPACINGS = 4.0
 #: Neighbours searched per vertex when measuring the spacing between barbs.
 NEIGHBOURS = 12
 #: Widest ribbon, as a multiple of ``spacing_cm`` (an isolated barb at the vane's edge).
@@ -148,7 +152,7 @@ def radial_zone(
     zone = agreement > RADIAL_AGREEMENT
     labels, _ = ndimage.label(zone)
     # The measured direction is a blur at the tip itself: the zone is the piece around it.
-    near = np.hypot(ray_length[..., 0], ray_length[..., 1]) < 4.0 * sigma_texels / h
+    near = np.hypot(ray_length[..., 0], ray_length[..., 1]) < TIP_SPACINGS * sigma_texels / h
     pieces = np.unique(labels[near & zone])
     return np.isin(labels, pieces[pieces > 0])
 
@@ -164,6 +168,7 @@ def trace(
     aspect: float,
     step: float,
     max_steps: int,
+    tip_radius: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Barbs from every start point at once (feather square units): returns ``(points,
     counts)``, points ``(b, max_steps + 1, 2)`` valid up to ``counts``.
@@ -173,7 +178,7 @@ def trace(
     of the tip's fan runs straight out from ``tip``. A barb stops on the level
     :data:`END_COVERAGE` of ``coverage`` (its last point interpolated onto it), on leaving the
     maps, where a rachis barb enters the radial ``zone`` or reaches the centre line, and where a
-    fan barb leaves the zone: the two kinds meet along its edge.
+    fan barb beyond ``tip_radius`` of the tip is outside it: the two kinds meet along its edge.
     """
     b = len(start)
     path = np.full((b, max_steps + 1, 2), np.nan)
@@ -188,7 +193,6 @@ def trace(
     x, last_level = start.copy(), level.copy()
     half_x = 0.5 * aspect
     zone_f = zone.astype(np.float32)
-    entered = np.zeros(b, dtype=bool)
     for i in range(1, max_steps + 1):
         if not alive.any():
             break
@@ -204,15 +208,16 @@ def trace(
         in_zone = sample_nearest(zone_f, _to_uv(q, aspect)) > 0.5
         centre = on_rachis[:, 0] & (q[:, 0] * side[idx] <= 0.0)
         # Where the two kinds meet, each ends one step into the other's side: no gap between.
-        met = np.where(on_rachis[:, 0], in_zone, entered[idx] & ~in_zone)
-        entered[idx] |= in_zone
+        beyond = np.hypot(q[:, 0] - tip[0], q[:, 1] - tip[1]) > tip_radius
+        met = np.where(on_rachis[:, 0], in_zone, beyond & ~in_zone)
         crossed = centre | met
         new_level = np.where(inside, sample_bilinear(coverage, _to_uv(q, aspect)), 0.0)
         new_level = new_level - END_COVERAGE
         ends = (new_level <= 0.0) | crossed
         # A barb leaving the vane ends on the coverage level between its last two points.
         t = np.clip(last_level[idx] / np.maximum(last_level[idx] - new_level, 1e-12), 0.0, 1.0)
-        t = np.where(met, 1.0, np.where(centre | ~inside, 0.0, t))
+        t = np.where(new_level <= 0.0, t, 1.0)
+        t = np.where(centre | ~inside, 0.0, t)
         end_point = p + (t * step)[:, None] * d2
         ok = ~ends | (t > 1e-3)
         path[idx[ok], i] = np.where(ends[ok, None], end_point[ok], q[ok])
@@ -273,7 +278,17 @@ def build_barbs(
     step = layout.segment_cm / frame.length
     max_steps = math.ceil(math.hypot(frame.aspect, 1.0) / step) + 1
     path, counts = trace(
-        field, coverage, zone, start, outward, rachis_barb, tip, frame.aspect, step, max_steps
+        field,
+        coverage,
+        zone,
+        start,
+        outward,
+        rachis_barb,
+        tip,
+        frame.aspect,
+        step,
+        max_steps,
+        TIP_SPACINGS * spacing,
     )
     kept = counts >= 2
     path, counts = path[kept], counts[kept]

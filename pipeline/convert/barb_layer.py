@@ -4,8 +4,10 @@ material that shows them in any viewer.
 ``NAME_geo_barbs.usdc`` holds ``/NAME/Geom/Barbs``: linear, non-periodic curves, one per barb,
 with authored ``normals`` (vertex: the vane normal, so USD draws each curve as a ribbon facing
 it), ``widths`` (vertex, cm: the barb with its barbules' span) and vertex primvars sampled from the
-maps (names in :data:`PRIMVARS`); ``primvars:pavonine_barbId`` is uniform (one per barb) and
-``primvars:displayColor`` (vertex) the baked preview colour. The asset's root layer payloads it
+maps (names in :data:`PRIMVARS`, and ``primvars:pavonine_featherUV`` as on the sheet);
+``primvars:pavonine_barbId`` is uniform (one per barb) and ``primvars:displayColor`` (vertex)
+the baked preview colour. No ``pavonine_barbTangent``: on a curve the barb direction is its
+tangent ``dP/du`` (the renderer's contract, docs/render.md). The asset's root layer payloads it
 in the ``barbs`` variant of its ``geometry`` variant set (:mod:`pavonine.pipeline.convert.asset`).
 """
 
@@ -18,7 +20,7 @@ import numpy as np
 
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.convert.barb_curves import BarbCurves
-from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
+from pavonine.schemas.authoring import FEATHER_UV_PRIMVAR
 
 BARBS = "Barbs"
 #: Preview material of the barbs (preview-purpose binding): their baked ``displayColor``.
@@ -85,9 +87,6 @@ def write_barbs_layer(path: Path, name: str, barbs: BarbCurves, geom: str = "Geo
     vertex = UsdGeom.Tokens.vertex
     primvars.CreatePrimvar(FEATHER_UV_PRIMVAR, Sdf.ValueTypeNames.TexCoord2fArray, vertex).Set(
         Vt.Vec2fArray.FromNumpy(barbs.feather_uv.astype(np.float32))
-    )
-    primvars.CreatePrimvar(BARB_TANGENT_PRIMVAR, Sdf.ValueTypeNames.Vector3fArray, vertex).Set(
-        Vt.Vec3fArray.FromNumpy(barbs.tangent.astype(np.float32))
     )
     for primvar, attribute in PRIMVARS.items():
         values = getattr(barbs, attribute)
