@@ -267,3 +267,57 @@ def test_baked_barb_colours_follow_the_ocellus(eye_asset):
     klass = np.array(api.GetPrimvar("pavonine_ocellarClass").Get())
     assert np.all((colour >= 0.0) & (colour <= 1.0))
     assert colour[klass == 5].sum(axis=1).mean() < colour[klass == 1].sum(axis=1).mean()
+
+
+def test_a_train_row_can_take_the_barbs_still_instanced(tmp_path):
+    """The front row of eye feathers as barbs: a second prototype of the same component with its
+    geometry variant selected; the other rows keep the sheet."""
+    from pathlib import Path
+
+    from click.testing import CliRunner
+    from pxr import Usd, UsdGeom
+
+    from pavonine.pipeline.cli import cli
+
+    repo = Path(__file__).parents[1]
+    text = (repo / "assets" / "recipes" / "peacock_train.toml").read_text()
+    text = text.replace('"../feathers/', f'"{repo / "assets" / "feathers"}/')
+    front = "count = 20\nradius_cm = 8\n"
+    assert front in text
+    (tmp_path / "train.toml").write_text(text.replace(front, front + 'geometry = "barbs"\n'))
+    result = CliRunner().invoke(
+        cli, ["assemble", "train", str(tmp_path / "train.toml"), "-o", str(tmp_path / "out")]
+    )
+    assert result.exit_code == 0, result.output
+    stage = Usd.Stage.Open(str(tmp_path / "out" / "peacock_train" / "peacock_train.usda"))
+    instancer = next(
+        UsdGeom.PointInstancer(p) for p in stage.Traverse() if p.IsA(UsdGeom.PointInstancer)
+    )
+    targets = instancer.GetPrototypesRel().GetTargets()
+    names = [t.name for t in targets]
+    assert names == ["blue", "eye", "fishtail", "yellow", "eye_barbs"]
+    indices = np.array(instancer.GetProtoIndicesAttr().Get())
+    assert np.sum(indices == names.index("eye_barbs")) == 20  # the front row
+    assert np.sum(indices == names.index("eye")) > 100  # the rows behind keep the sheet
+    barbs = stage.GetPrimAtPath(targets[-1])
+    assert barbs.GetVariantSet("geometry").GetVariantSelection() == "barbs"
+    assert barbs.GetChild("Geom").GetChild("Barbs").IsA(UsdGeom.BasisCurves)
+    assert not barbs.GetChild("Geom").GetChild("Vane").IsActive()
+    sheet = stage.GetPrimAtPath(targets[1])
+    assert sheet.GetChild("Geom").GetChild("Vane").IsActive()
+    assert not sheet.GetChild("Geom").GetChild("Barbs")
+
+
+def test_a_bad_row_geometry_is_named(tmp_path):
+    from pavonine.pipeline.assemble.recipe import parse_train_recipe
+
+    text = (
+        'name = "t"\n[components]\neye = "e.usd"\n'
+        '[[rows]]\ncomponent = "eye"\ncount = 3\nradius_cm = 5\ngeometry = "fur"\n'
+    )
+    (tmp_path / "t.toml").write_text(text)
+    (tmp_path / "e.usd").write_text("#usda 1.0\n")
+    with pytest.raises(
+        InputError, match=r"t\.toml: rows\.0\.geometry: expected one of sheet, barbs"
+    ):
+        parse_train_recipe(tmp_path / "t.toml")

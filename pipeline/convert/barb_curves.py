@@ -295,7 +295,7 @@ def build_barbs(
     order = np.arange(path.shape[1])[None, :] < counts[:, None]
     xy = path[order]
     barb = np.repeat(np.arange(len(counts)), counts)
-    tangent2 = _polyline_tangents(xy, counts)
+    tangent2 = polyline_tangents(xy, counts)
     uv = np.clip(_to_uv(xy, frame.aspect), 0.0, 1.0)
     cover = np.clip(sample_bilinear(coverage, uv), 0.0, 1.0)
     local = neighbour_spacing(xy, tangent2, barb, MAX_WIDTH_SPACINGS * spacing)
@@ -323,7 +323,7 @@ def build_barbs(
     )
 
 
-def _polyline_tangents(xy: np.ndarray, counts: np.ndarray) -> np.ndarray:
+def polyline_tangents(xy: np.ndarray, counts: np.ndarray) -> np.ndarray:
     """Unit tangents of concatenated polylines (central differences, one-sided at the ends)."""
     ends = np.cumsum(counts)
     starts = ends - counts
