@@ -159,7 +159,7 @@ class StageDelegate:
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
             elif kind == "BasisCurves":
-                built, boxes = self._curves(prim, self.xforms.world(prim))
+                built, boxes = self._curves(prim, self.xforms.world(prim), world=True)
                 for i, shape in enumerate(built):
                     self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
                 self._bounds.extend(boxes)
@@ -249,10 +249,16 @@ class StageDelegate:
         return shapes.implicit_surface(prim, self.time, self.diag)
 
     def _gprim(
-        self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool
+        self,
+        prim: Usd.Prim,
+        matrix_usd: np.ndarray,
+        world: bool,
+        surface: mesh.Surface | None = None,
     ) -> tuple[list, list[tuple[np.ndarray, np.ndarray]]]:
-        """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space."""
-        surface = self._surface(prim)
+        """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space
+        (``surface``: the prim already as polygons, e.g. tessellated ribbons)."""
+        ribbon = surface is not None and prim.GetTypeName() == "BasisCurves"
+        surface = self._surface(prim) if surface is None else surface
         if surface is None:
             return [], []
         built = []
@@ -260,6 +266,8 @@ class StageDelegate:
             mesh.material_groups(surface, self.time, self.diag)
         ):
             spec = self._material(material, prim)
+            if ribbon:
+                spec = spec.on_ribbon(prim, self.diag)
             uv_primvar, attributes = spec.primvars_for(prim)
             triangles = mesh.build_triangle_mesh(
                 surface,
@@ -323,8 +331,13 @@ class StageDelegate:
         self.scene.mesh_lights += 1
         return entry
 
-    def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray) -> tuple[list, list]:
-        """A ``BasisCurves`` prim as one Mitsuba curve shape with its bound material."""
+    def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool = False) -> tuple:
+        """A ``BasisCurves`` prim: ribbons (authored normals) as a mesh like any gprim's, else one
+        Mitsuba curve shape (tubes) with its bound material."""
+        if curves.has_normals(prim):
+            ribbons = curves.ribbon_surface(prim, self.time, self.diag)
+            if ribbons is not None:
+                return self._gprim(prim, matrix_usd, world, surface=ribbons)
         built = curves.curve_control_points(prim, matrix_usd, self.time, self.diag)
         if built is None:
             return [], []

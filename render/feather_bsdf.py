@@ -11,6 +11,11 @@ Per shading point it reads four maps through Mitsuba textures at ``si.uv`` (data
   set (the render delegate guarantees it on feather meshes), else the surface tangent ``dp/du``
 * ``melanin``: structural share w (1 = full structural colour, 0 = melanin brown)
 
+Each map has a primvar-fed twin, ``<map>_primvar`` (:data:`PRIMVAR_SLOTS`: a ``mesh_attribute``
+texture or a constant; barbs carry their inputs as vertex primvars), in the primvar's units:
+ocellar class index, gradation t, share w, barbule angle in degrees. A bound twin wins over its
+map, and is read on the hit instance's own mesh (as the barb tangent is, below).
+
 Per-instance primvars (``pavonine:gradationOffset`` added to t, ``pavonine:structuralScale``
 multiplying w) are gathered per lane from tables bound after the scene is built
 (:mod:`pavonine.render.instance_primvars`).
@@ -49,6 +54,7 @@ QUANTITIES = ("interval", "radius", "count")
 DISPERSIONS = ("melanin", "keratin")
 DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
 MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
+PRIMVAR_SLOTS = {name: f"{name}_primvar" for name in DATA_MAPS}
 #: Per-instance frame table: world→instance 3×4 (row-major) then instance→world linear 3×3.
 INSTANCE_FRAME = "instance_frame"
 FRAME_FLOATS = 21
@@ -253,6 +259,7 @@ def _plugin_class(variant: str):
             self.params, self.constants = self.material.params, self.material.constants
             self.n_classes = len(self.params.classes)
             self.maps = {name: props.get(name, None) for name in DATA_MAPS}
+            self.primvars = {name: props.get(slot, None) for name, slot in PRIMVAR_SLOTS.items()}
             self.barb_tangents = bool(props.get("barb_tangents", False))
             self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
             self.alpha_x_sampling = float(
@@ -291,16 +298,30 @@ def _plugin_class(variant: str):
             self.instance_tables[key] = (table, float(neutral), entries)
 
         def _barb_tangent(self, si, active):
-            """The mesh's barb-tangent attribute at ``si``, in world space.
+            """The mesh's barb-tangent attribute at ``si``, in world space."""
+            local, linear = self._instance_local(si, active)
+            a = mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, local, active))
+            if linear is None:
+                return a
+            return mi.Vector3f(
+                *(
+                    linear[3 * r] * a.x + linear[3 * r + 1] * a.y + linear[3 * r + 2] * a.z
+                    for r in range(3)
+                )
+            )
+
+        def _instance_local(self, si, active):
+            """``si`` in the hit instance's own space, and the instance's linear part (9 floats,
+            row-major; ``None`` when no instance frames are bound).
 
             Mitsuba's ``Mesh.eval_attribute`` finds barycentric coordinates from ``si.p``
             against the mesh's own vertices, so a hit through an ``instance`` (``si.p`` in world
             space, the vertices in prototype space) reads garbage. The hit point is taken into
-            the instance's space first and the attribute back out (``INSTANCE_FRAME`` table).
+            the instance's space first (``INSTANCE_FRAME`` table); attributes read there.
             """
             entry = self.instance_tables.get(INSTANCE_FRAME)
             if entry is None:
-                return mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, si, active))
+                return si, None
             table, _, entries = entry
             if isinstance(table, dict):  # scalar variants: the instance object itself
                 frame = table.get(si.instance.id()) if si.instance is not None else None
@@ -313,16 +334,14 @@ def _plugin_class(variant: str):
             p = si.p
             local = dr.zeros(mi.SurfaceInteraction3f)
             local.prim_index = si.prim_index
+            local.shape = si.shape
             local.p = mi.Point3f(
                 *(
                     m[4 * r] * p.x + m[4 * r + 1] * p.y + m[4 * r + 2] * p.z + m[4 * r + 3]
                     for r in range(3)
                 )
             )
-            a = mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, local, active))
-            return mi.Vector3f(
-                *(m[12 + 3 * r] * a.x + m[13 + 3 * r] * a.y + m[14 + 3 * r] * a.z for r in range(3))
-            )
+            return local, m[12:]
 
         def _per_instance(self, key: str, si, active):
             """The value of ``key`` for the instance each lane hit (``None``: nothing bound)."""
@@ -339,6 +358,18 @@ def _plugin_class(variant: str):
 
         # -- per-point material state ------------------------------------------------------
         def _map(self, name: str, si, active):
+            """The map's value at ``si`` (its grey level), from its primvar twin when bound."""
+            primvar = self.primvars[name]
+            if primvar is not None:
+                if isinstance(primvar, float):
+                    value = mi.Float(primvar)
+                else:
+                    value = primvar.eval_1(self._instance_local(si, active)[0], active)
+                if name == "ocellar":  # class index → grey (class k at 1 − k/(n − 1))
+                    return 1.0 - value / max(self.n_classes - 1, 1)
+                if name == "angle":  # degrees → grey (the axis is a line: 180° periodic)
+                    return value / 180.0 - dr.floor(value / 180.0)
+                return value
             texture = self.maps[name]
             if texture is None:
                 return mi.Float(MAP_DEFAULTS[name])

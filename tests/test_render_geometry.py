@@ -561,11 +561,11 @@ def test_skinned_points_follow_the_animation_at_the_render_time():
 
 
 def test_curve_bases_convert_exactly_to_bsplines():
-    from pavonine.render import curves
+    from pavonine.render.curves import bases
 
     rng = np.random.default_rng(1)
     bezier = rng.normal(size=(4, 4))
-    (bspline,) = curves._to_bspline(bezier, "cubic", "bezier", "nonperiodic")
+    (bspline,) = bases.to_bspline(bezier, "cubic", "bezier", "nonperiodic")
 
     # B-spline segment evaluated at t = 0, 1/2, 1 equals the Bézier curve there
     def basis(t):
@@ -579,8 +579,8 @@ def test_curve_bases_convert_exactly_to_bsplines():
     bern = lambda t: np.array([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3])  # noqa: E731
     for t in (0.0, 0.5, 1.0):
         assert basis(t) @ bspline == pytest.approx(bern(t) @ bezier)
-    pinned = curves._to_bspline(bezier, "cubic", "bspline", "pinned")[0]
+    pinned = bases.to_bspline(bezier, "cubic", "bspline", "pinned")[0]
     assert basis(0.0) @ pinned[:4] == pytest.approx(bezier[0])  # starts on its first point
     assert basis(1.0) @ pinned[-4:] == pytest.approx(bezier[-1])
-    periodic = curves._to_bspline(bezier, "cubic", "bspline", "periodic")[0]
+    periodic = bases.to_bspline(bezier, "cubic", "bspline", "periodic")[0]
     assert len(periodic) == 7 and np.array_equal(periodic[4:], bezier[:3])

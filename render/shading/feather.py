@@ -7,18 +7,28 @@ be read gets one warning and the map's neutral value. With ``PAVONINE_IGNORE_FEA
 in the environment feather materials render their UsdPreviewSurface instead, as a viewer that
 knows nothing of Pavonine would. The feather's uv and barb-tangent primvars are read under their
 legacy names (``pavonine:featherUV``, ``pavonine:barbTangent``) on meshes that only carry those.
+
+The four data inputs can also come as primvars (:data:`INPUT_PRIMVARS`; barbs carry them per
+vertex): a prim that has one reads it instead of the map (optional placeholders feeding the
+BSDF's ``<map>_primvar`` slots). On ribbons (:func:`on_ribbon`) the alpha mask and the
+displacement are left out, the barbs' geometry being the silhouette and the relief; the maps of
+inputs a ribbon does not carry as primvars are read at its ``pavonine_featherUV``, and without
+that the inputs take the schema's neutral values (warned).
 """
 
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 
-from pxr import Usd, UsdShade
+from pxr import Usd, UsdGeom, UsdShade
 
 from pavonine.asset_io import AssetReadError, local_file
 from pavonine.materials.parameters import ParameterError
 from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.shading.network import FLOAT, Affine, Network
+from pavonine.render.shading.primvars import placeholder
 from pavonine.render.shading.spec import MaterialSpec
 
 FEATHER_API = "PavonineFeatherAPI"
@@ -27,6 +37,14 @@ BARB_TANGENT = "pavonine_barbTangent"
 #: Names the converter gave these primvars before they had to be valid shading-language
 #: identifiers (MaterialX ``geompropvalue``); meshes that carry only these are read through them.
 LEGACY_PRIMVARS = {FEATHER_UV: "pavonine:featherUV", BARB_TANGENT: "pavonine:barbTangent"}
+#: The data maps' primvar twins (BSDF input → primvar; units: class index, gradation t,
+#: structural share w, barbule angle in degrees): docs/render.md, "Ribbons".
+INPUT_PRIMVARS = {
+    "ocellar": "pavonine_ocellarClass",
+    "gradation": "pavonine_gradation",
+    "melanin": "pavonine_melanin",
+    "angle": "pavonine_barbuleAngle",
+}
 #: Environment variable: ``1`` renders feather materials through their UsdPreviewSurface, as a
 #: viewer that knows nothing of Pavonine would (used to compare the baked preview with the
 #: spectral feather).
@@ -83,6 +101,12 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
     plugin.register()
     _check_spectral(path)
     bsdf = plugin.feather_bsdf_dict(params, maps, barb_tangents=True)
+    net = Network(path, time, diag)
+    core = _feather_node(bsdf)
+    for name, primvar in INPUT_PRIMVARS.items():
+        core[plugin.PRIMVAR_SLOTS[name]] = placeholder(
+            primvar, FLOAT, [0.0], Affine(), net, optional=True
+        )
     attributes = {BARB_TANGENT: plugin.BARB_TANGENT_ATTRIBUTE}
     return MaterialSpec(
         path,
@@ -91,7 +115,49 @@ def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> Ma
         attributes,
         two_sided=True,
         is_feather=True,
+        primvars=tuple(net.primvars),
     )
+
+
+def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> MaterialSpec:
+    """A feather material as it shades ``prim``'s ribbons: the ``pavonine_feather`` node alone
+    (no alpha mask, no displacement); without ``pavonine_featherUV`` on the prim its maps are
+    dropped too, and each mapped input the prim lacks as a primvar is warned about."""
+    from pavonine.render.feather_bsdf import DATA_MAPS
+
+    api = UsdGeom.PrimvarsAPI(prim)
+
+    def carried(name: str) -> bool:
+        primvar = api.FindPrimvarWithInheritance(name)
+        return bool(primvar) and primvar.HasValue()
+
+    core = dict(_feather_node(spec.bsdf))
+    if carried(FEATHER_UV) or carried(LEGACY_PRIMVARS[FEATHER_UV]):
+        return replace(spec, key=f"{spec.key}#ribbon", bsdf=core)
+    lacking = [
+        INPUT_PRIMVARS[name]
+        for name in DATA_MAPS
+        if name in core and not carried(INPUT_PRIMVARS[name])
+    ]
+    if lacking:
+        diag.warn(
+            str(prim.GetPath()),
+            f"feather material {spec.key}: the ribbons have no primvars:{FEATHER_UV} to place its "
+            f"maps and no primvars:{', primvars:'.join(lacking)}; those inputs take their neutral "
+            "values",
+        )
+    core = {k: v for k, v in core.items() if k not in DATA_MAPS}
+    return replace(spec, key=f"{spec.key}#ribbon-no-uv", bsdf=core, uv_primvar="st")
+
+
+def _feather_node(bsdf: dict) -> dict:
+    """The ``pavonine_feather`` node inside a feather material's wrappers (mask, bumpmap)."""
+    from pavonine.render.feather_bsdf import PLUGIN_NAME
+
+    node = bsdf
+    while node.get("type") != PLUGIN_NAME:
+        node = node["bsdf"]
+    return node
 
 
 def _check_aspects(path: str, maps: dict[str, str | None], diag: Diagnostics) -> None:

@@ -11,7 +11,8 @@ BSDF dict, and :func:`resolve` turns it into, for one mesh:
   primvars in :attr:`~.spec.MaterialSpec.primvars` (:func:`pavonine.render.mesh.build_triangle_mesh`);
 * the primvar's value, when it is constant (inherited down namespace as USD says);
 * the reader's ``fallback`` when the mesh has no such primvar, or it could not be built as an
-  attribute (the geometry side warned why).
+  attribute (the geometry side warned why); an *optional* placeholder (the feather's primvar
+  inputs, which fall back to its maps) is removed from the dict instead.
 
 ``UsdPrimvarReader_float2`` feeding a texture's ``st`` is not a placeholder: it names the mesh's
 texture coordinates (:mod:`.textures`). ``_string`` and ``_matrix`` readers are warned about.
@@ -53,16 +54,22 @@ def reader(
     return placeholder(name, kind, coerce(fallback, kind, 0.0), affine, net)
 
 
-def placeholder(name: str, kind: str, fallback: Any, affine: Affine, net: Network) -> dict:
-    """The placeholder node for primvar ``name`` read as ``kind``."""
+def placeholder(
+    name: str, kind: str, fallback: Any, affine: Affine, net: Network, *, optional: bool = False
+) -> dict:
+    """The placeholder node for primvar ``name`` read as ``kind`` (``optional``: the key holding
+    it is dropped on a mesh without the primvar, rather than given ``fallback``)."""
     net.use_primvar(name)
-    return {
+    node = {
         "type": PLACEHOLDER,
         "primvar": name,
         "kind": kind,
         "fallback": np.atleast_1d(fallback).tolist(),
         "affine": (affine.a, affine.b),
     }
+    if optional:
+        node["optional"] = True
+    return node
 
 
 @dataclass(frozen=True)
@@ -134,7 +141,8 @@ def resolve(tree: Any, binding: Binding, where: str, diag: Diagnostics) -> Any:
     if isinstance(tree, dict):
         if tree.get("type") == PLACEHOLDER:
             return _resolve_one(tree, binding, where, diag)
-        return {k: resolve(v, binding, where, diag) for k, v in tree.items()}
+        resolved = {k: resolve(v, binding, where, diag) for k, v in tree.items()}
+        return {k: v for k, v in resolved.items() if v is not None or tree[k] is None}
     return tree
 
 
@@ -142,6 +150,8 @@ def _resolve_one(node: dict, binding: Binding, where: str, diag: Diagnostics) ->
     kind, (a, b) = node["kind"], node["affine"]
     interpolation, value = binding.lookup(node["primvar"])
     if interpolation == "missing":
+        if node.get("optional"):
+            return None
         return as_mitsuba(np.asarray(node["fallback"]) * a + b, kind)
     if interpolation == UsdGeom.Tokens.constant:
         return as_mitsuba(coerce(value, kind, node["fallback"]) * np.float64(a) + b, kind)

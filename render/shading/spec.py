@@ -70,6 +70,15 @@ class MaterialSpec:
 
         return name(self.uv_primvar), {name(k): v for k, v in self.attributes.items()}
 
+    def on_ribbon(self, prim: Usd.Prim, diag: Diagnostics) -> MaterialSpec:
+        """The material as it shades ``prim``'s ribbons (tessellated ``BasisCurves``): itself, but
+        a feather's without its sheet-only wrappers (:func:`.feather.on_ribbon`)."""
+        if not self.is_feather:
+            return self
+        from pavonine.render.shading.feather import on_ribbon
+
+        return on_ribbon(self, prim, diag)
+
     def binding(
         self, prim: Usd.Prim, time: Usd.TimeCode, attributes: Mapping[str, np.ndarray]
     ) -> Binding:
