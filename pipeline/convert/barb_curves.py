@@ -11,7 +11,8 @@ the apex of the shaft, they are arranged radially). The maps say where: the *rad
 follows the field by midpoint (RK2) steps of ``segment_cm``, its axis' sign kept continuous,
 and ends where it enters the radial zone; a tip barb runs straight out (the field is radial
 there to within its ±15° of measurement noise, and streamlines of that noise would bunch) and
-ends where it leaves the zone; the two kinds meet along the zone's edge, each one step past it.
+ends where it leaves the zone; the two kinds meet along the zone's edge, each running one barb
+spacing past it (their square ends would leave gaps).
 Every barb ends where the alpha map's coverage falls to :data:`END_COVERAGE` (the silhouette:
 its last vertex placed on that level between its last two samples), or on leaving the maps or
 crossing the rachis. Rachis barbs seeded inside the zone, or whose measured direction leaves the
@@ -169,6 +170,7 @@ def trace(
     step: float,
     max_steps: int,
     tip_radius: float = 0.0,
+    overlap_steps: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Barbs from every start point at once (feather square units): returns ``(points,
     counts)``, points ``(b, max_steps + 1, 2)`` valid up to ``counts``.
@@ -178,7 +180,8 @@ def trace(
     of the tip's fan runs straight out from ``tip``. A barb stops on the level
     :data:`END_COVERAGE` of ``coverage`` (its last point interpolated onto it), on leaving the
     maps, where a rachis barb enters the radial ``zone`` or reaches the centre line, and where a
-    fan barb beyond ``tip_radius`` of the tip is outside it: the two kinds meet along its edge.
+    fan barb beyond ``tip_radius`` of the tip is outside it: the two kinds meet along its edge,
+    each running ``overlap_steps`` steps past it so that their square ends leave no gap.
     """
     b = len(start)
     path = np.full((b, max_steps + 1, 2), np.nan)
@@ -193,6 +196,7 @@ def trace(
     x, last_level = start.copy(), level.copy()
     half_x = 0.5 * aspect
     zone_f = zone.astype(np.float32)
+    past = np.zeros(b, dtype=np.int64)
     for i in range(1, max_steps + 1):
         if not alive.any():
             break
@@ -210,6 +214,8 @@ def trace(
         # Where the two kinds meet, each ends one step into the other's side: no gap between.
         beyond = np.hypot(q[:, 0] - tip[0], q[:, 1] - tip[1]) > tip_radius
         met = np.where(on_rachis[:, 0], in_zone, beyond & ~in_zone)
+        past[idx] = np.where(met, past[idx] + 1, 0)
+        met = past[idx] >= overlap_steps
         crossed = centre | met
         new_level = np.where(inside, sample_bilinear(coverage, _to_uv(q, aspect)), 0.0)
         new_level = new_level - END_COVERAGE
@@ -230,18 +236,26 @@ def trace(
 
 
 def neighbour_spacing(
-    xy: np.ndarray, tangent: np.ndarray, barb: np.ndarray, limit: float
+    xy: np.ndarray,
+    tangent: np.ndarray,
+    barb: np.ndarray,
+    limit: float,
+    family: np.ndarray | None = None,
 ) -> np.ndarray:
     """Per vertex, the distance to the neighbouring barbs perpendicular to its own: the mean
     of the nearest on its left and on its right (either alone at the vane's edge), at most
     ``limit``. ``xy``: vertices (square feather units), ``tangent``: unit 2-D barb directions,
-    ``barb``: each vertex's barb index."""
+    ``barb``: each vertex's barb index; ``family`` (optional, per vertex): only neighbours of the
+    same family count (rachis and tip barbs overlap by a step where they meet, and must not
+    narrow each other there)."""
     tree = cKDTree(xy)
     k = min(NEIGHBOURS, len(xy))
     dist, near = tree.query(xy, k=k, distance_upper_bound=limit)
     valid = np.isfinite(dist) & (near < len(xy))
     near = np.where(valid, near, 0)
     other = valid & (barb[near] != barb[:, None])
+    if family is not None:
+        other &= family[near] == family[:, None]
     side = np.column_stack([-tangent[:, 1], tangent[:, 0]])
     offset = np.einsum("nkc,nc->nk", xy[near] - xy[:, None, :], side)
     left = np.where(other & (offset > 1e-9), offset, np.inf).min(axis=1)
@@ -289,16 +303,17 @@ def build_barbs(
         step,
         max_steps,
         TIP_SPACINGS * spacing,
+        math.ceil(spacing / step) + 1,
     )
     kept = counts >= 2
-    path, counts = path[kept], counts[kept]
+    path, counts, rachis_barb = path[kept], counts[kept], rachis_barb[kept]
     order = np.arange(path.shape[1])[None, :] < counts[:, None]
     xy = path[order]
     barb = np.repeat(np.arange(len(counts)), counts)
     tangent2 = polyline_tangents(xy, counts)
     uv = np.clip(_to_uv(xy, frame.aspect), 0.0, 1.0)
     cover = np.clip(sample_bilinear(coverage, uv), 0.0, 1.0)
-    local = neighbour_spacing(xy, tangent2, barb, MAX_WIDTH_SPACINGS * spacing)
+    local = neighbour_spacing(xy, tangent2, barb, MAX_WIDTH_SPACINGS * spacing, rachis_barb[barb])
     widths = local * frame.length * layout.width_share * cover
     normal = frame.normal(uv)
     smooth = ndimage.gaussian_filter(maps["displacement"], 0.5 * spacing * height)
