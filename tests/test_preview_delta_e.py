@@ -85,14 +85,36 @@ def feather_hits(stage_path: Path, width: int, height: int, mesh: str = "Vane"):
     return uv.reshape(height, width, 2), on_mesh.reshape(height, width)
 
 
-@pytest.mark.render
-def test_preview_surface_matches_the_spectral_render_per_ocellus_zone(tmp_path, monkeypatch):
+def zone_delta_e(maps: Path, uv, on_vane, first, second):
+    """Per ocellus zone (the ocellar map at each pixel's feather coordinate, alpha above 0.9, one
+    pixel in from every zone boundary): ``(zone image, {class: (pixels, ΔE2000 of the mean
+    colours of the two images)})`` for zones of at least ``MIN_PIXELS``."""
     from scipy import ndimage
 
     from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
-    from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.pipeline.maps.io import read_map, sample_bilinear, sample_nearest
     from pavonine.pipeline.maps.paint import ocellar_class
+
+    alpha = np.zeros(on_vane.shape)
+    alpha[on_vane] = sample_bilinear(read_map(maps / "alpha.png", "alpha"), uv[on_vane])
+    zone = np.full(on_vane.shape, -1)
+    zone[on_vane] = ocellar_class(sample_nearest(read_map(maps / "ocellar.png", "o"), uv[on_vane]))
+    results = {}
+    for k in range(6):
+        mask = ndimage.binary_erosion((zone == k) & (alpha > 0.9))
+        if mask.sum() < MIN_PIXELS:
+            continue
+        a, b = first[mask].mean(axis=0), second[mask].mean(axis=0)
+        results[k] = (
+            int(mask.sum()),
+            float(delta_e2000(linear_srgb_to_lab(a), linear_srgb_to_lab(b))),
+        )
+    return zone, results
+
+
+@pytest.mark.render
+def test_preview_surface_matches_the_spectral_render_per_ocellus_zone(tmp_path, monkeypatch):
+    from pavonine.pipeline.convert.batch import convert_recipe
     from pavonine.render import materials
     from pavonine.render.api import render_stage
     from pavonine.render.imageio import write_png
@@ -112,21 +134,7 @@ def test_preview_surface_matches_the_spectral_render_per_ocellus_zone(tmp_path, 
     )
     write_png(tmp_path / "spectral_vs_preview.png", np.concatenate([spectral.rgb, preview.rgb], 1))
 
-    maps = root.parent / "maps"
-    alpha = np.zeros((height, width))
-    alpha[on_vane] = sample_bilinear(read_map(maps / "alpha.png", "alpha"), uv[on_vane])
-    zone = np.full((height, width), -1)
-    zone[on_vane] = ocellar_class(sample_nearest(read_map(maps / "ocellar.png", "o"), uv[on_vane]))
-    results = {}
-    for k in range(6):
-        mask = ndimage.binary_erosion((zone == k) & (alpha > 0.9))
-        if mask.sum() < MIN_PIXELS:
-            continue
-        a, b = spectral.rgb[mask].mean(axis=0), preview.rgb[mask].mean(axis=0)
-        results[k] = (
-            int(mask.sum()),
-            float(delta_e2000(linear_srgb_to_lab(a), linear_srgb_to_lab(b))),
-        )
+    zone, results = zone_delta_e(root.parent / "maps", uv, on_vane, spectral.rgb, preview.rgb)
     print("\nzone  pixels  ΔE2000 (spectral vs UsdPreviewSurface)")
     for k, (pixels, de) in results.items():
         print(f"{k:>4}  {pixels:>6}  {de:6.2f}")
