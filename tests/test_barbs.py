@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from test_recipe import MINIMAL
 
 from pavonine.pipeline.convert.barb_curves import END_COVERAGE, build_barbs, coverage_map
 from pavonine.pipeline.convert.barbs import barb_direction_field
@@ -15,18 +16,7 @@ from pavonine.pipeline.convert.recipe import BarbOptions, parse_recipe
 from pavonine.pipeline.convert.surface import FeatherFrame
 from pavonine.pipeline.errors import InputError
 
-RECIPE = """\
-name = "f"
-[maps]
-alpha = "m/alpha.png"
-ocellar = "m/ocellar.png"
-gradation = "m/gradation.png"
-angle = "m/angle.png"
-displacement = "m/displacement.png"
-melanin = "m/melanin.png"
-[geometry]
-length_cm = 20
-"""
+RECIPE = MINIMAL + "[geometry]\nlength_cm = 20\n"
 
 
 def _recipe(tmp_path, barbs: str):
