@@ -87,7 +87,7 @@ def _maps(alpha_left: float = 1.0) -> dict[str, np.ndarray]:
         "gradation": y.astype(np.float32),
         "melanin": ((cols + 0.5) / w).astype(np.float32),
         "angle": np.full((h, w), 0.2, np.float32),
-        "ocellar": np.where(y > 0.5, 0.8, 0.4).astype(np.float32),  # classes 1 and 3
+        "ocellar": np.where(y > 0.5, 0.8, 0.6).astype(np.float32),  # classes 1 and 2
     }
 
 
@@ -167,7 +167,7 @@ def test_primvars_are_the_maps_at_each_vertex():
     assert np.allclose(barbs.melanin, u, atol=1.5 / (SIZE // 2))
     assert np.allclose(barbs.barbule_angle_deg, 36.0, atol=0.1)
     away = np.abs(v - 0.5) > 2.0 / SIZE
-    assert np.all(barbs.ocellar_class[away] == np.where(v[away] > 0.5, 1, 3))
+    assert np.all(barbs.ocellar_class[away] == np.where(v[away] > 0.5, 1, 2))
     assert np.array_equal(barbs.barb_id, np.arange(barbs.barb_count))
 
 
@@ -311,3 +311,16 @@ def test_a_bad_row_geometry_is_named(tmp_path):
         InputError, match=r"t\.toml: rows\.0\.geometry: expected one of sheet, barbs"
     ):
         parse_train_recipe(tmp_path / "t.toml")
+
+
+def test_ring_boundaries_sit_where_the_map_puts_them_not_half_a_segment_off():
+    """Classes 1 | 2 meet at v = 0.5 in the test maps: every barb crossing it switches class
+    between two vertices straddling v = 0.5 (the bilinear mid-level contour of the map)."""
+    barbs, _ = _build(_maps())
+    v = barbs.points[:, 1] / LENGTH
+    same_barb = barbs.barb_of_vertex()[:-1] == barbs.barb_of_vertex()[1:]
+    switch = np.nonzero(same_barb & (barbs.ocellar_class[:-1] != barbs.ocellar_class[1:]))[0]
+    assert len(switch) >= 20
+    middle = 0.5 * (v[switch] + v[switch + 1])
+    assert np.all(np.abs(middle - 0.5) < 2e-4)  # segments are 0.005 long in v
+    assert np.all(np.abs(v[switch + 1] - v[switch]) < 2e-4)

@@ -309,6 +309,7 @@ def build_barbs(
     path, counts, rachis_barb = path[kept], counts[kept], rachis_barb[kept]
     order = np.arange(path.shape[1])[None, :] < counts[:, None]
     xy = path[order]
+    xy, counts, klass = split_at_classes(xy, counts, maps["ocellar"], frame.aspect)
     barb = np.repeat(np.arange(len(counts)), counts)
     tangent2 = polyline_tangents(xy, counts)
     uv = np.clip(_to_uv(xy, frame.aspect), 0.0, 1.0)
@@ -329,13 +330,63 @@ def build_barbs(
         widths=widths.astype(np.float64),
         feather_uv=uv,
         tangent=tangent,
-        ocellar_class=ocellar_class(sample_nearest(maps["ocellar"], uv)),
+        ocellar_class=klass,
         gradation=sample_bilinear(maps["gradation"], uv).astype(np.float64),
         melanin=sample_bilinear(maps["melanin"], uv).astype(np.float64),
         barbule_angle_deg=angle_degrees(sample_bilinear(maps["angle"], uv)).astype(np.float64),
         coverage=cover.astype(np.float64),
         barb_id=np.arange(len(counts), dtype=np.int32),
     )
+
+
+#: Bisection steps placing a ring boundary along a barb segment (to 1/256 of a segment).
+BOUNDARY_STEPS = 8
+#: Half the gap between the two vertices that straddle a ring boundary, in segments.
+BOUNDARY_GAP = 0.01
+
+
+def split_at_classes(
+    xy: np.ndarray, counts: np.ndarray, ocellar: np.ndarray, aspect: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Barb vertices with a pair straddling every ring boundary, and each vertex's class.
+
+    A vertex's class is that of the ocellar map's bilinear grey (rounded to the nearest class
+    level), so ring boundaries are the map's smooth mid-level contours, not its texel edges
+    (where the map jumps two classes, the class between shows in a band half a texel wide).
+    Where two neighbouring vertices of a barb differ, the boundary is found on the segment by
+    bisection (the grey crossing the mean of their two levels) and two vertices of their two
+    classes are inserted :data:`BOUNDARY_GAP` of a segment either side of it: a renderer
+    interpolating the class between vertices switches at the boundary, not half a segment off
+    (not on a barb's last segment, which fades out at the silhouette). Returns ``(xy, counts, class)``.
+    """
+    grey = sample_bilinear(ocellar, _to_uv(xy, aspect))
+    klass = ocellar_class(grey)
+    ends = np.cumsum(counts) - 1
+    last = np.zeros(len(xy), dtype=bool)
+    last[ends] = True
+    # Not on a barb's last segment: it fades to nothing at the silhouette.
+    inner = ~last[:-1] & ~last[1:]
+    seg = np.nonzero(inner & (klass[:-1] != klass[1:]))[0]
+    if len(seg) == 0:
+        return xy, counts, klass
+    a, b = xy[seg], xy[seg + 1]
+    level = 1.0 - 0.5 * (klass[seg] + klass[seg + 1]) / 5.0
+    below = np.sign(grey[seg] - level)
+    lo, hi = np.zeros(len(seg)), np.ones(len(seg))
+    for _ in range(BOUNDARY_STEPS):
+        mid = 0.5 * (lo + hi)
+        g = sample_bilinear(ocellar, _to_uv(a + mid[:, None] * (b - a), aspect))
+        same = np.sign(g - level) == below
+        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+    t = 0.5 * (lo + hi)
+    before = a + np.clip(t - BOUNDARY_GAP, 0.0, 1.0)[:, None] * (b - a)
+    after = a + np.clip(t + BOUNDARY_GAP, 0.0, 1.0)[:, None] * (b - a)
+    at = np.repeat(seg + 1, 2)
+    points = np.stack([before, after], axis=1).reshape(-1, 2)
+    classes = np.stack([klass[seg], klass[seg + 1]], axis=1).ravel()
+    barb = np.repeat(np.arange(len(counts)), counts)
+    added = np.bincount(barb[seg], minlength=len(counts)) * 2
+    return np.insert(xy, at, points, axis=0), counts + added, np.insert(klass, at, classes)
 
 
 def polyline_tangents(xy: np.ndarray, counts: np.ndarray) -> np.ndarray:
