@@ -72,7 +72,7 @@ STREAK = 0.012  # streak period along the rachis (feather units) painted in the 
 def _maps(alpha_left: float = 1.0) -> dict[str, np.ndarray]:
     """A 2:1 (height:width) feather: straight barbs at 45° to the rachis, a rectangular vane
     |x| < 0.18, 0.05 < y < 0.85; alpha 1 on the right, ``alpha_left`` on the left; gradation =
-    v, melanin = u, angle grey 0.2 (36°), ocellar class 1 above v = 0.5, 3 below."""
+    v, melanin = u, angle grey 0.2 (36°), ocellar class 1 above v = 0.5, 2 below."""
     h, w = SIZE, SIZE // 2
     rows, cols = np.mgrid[0:h, 0:w]
     x = ((cols + 0.5) / w - 0.5) * 0.5
