@@ -324,3 +324,18 @@ def test_ring_boundaries_sit_where_the_map_puts_them_not_half_a_segment_off():
     middle = 0.5 * (v[switch] + v[switch + 1])
     assert np.all(np.abs(middle - 0.5) < 2e-4)  # segments are 0.005 long in v
     assert np.all(np.abs(v[switch + 1] - v[switch]) < 2e-4)
+
+
+def test_no_two_vertices_of_a_barb_coincide():
+    """A renderer needs a direction on every segment (the eye's ring boundaries add vertices)."""
+    from pavonine.pipeline.maps.paint import generate_maps
+
+    maps = generate_maps("eye", 256, seed=4)
+    frame = FeatherFrame(30.0, 0.5, 0.0, 0.0)
+    rachis = RachisSpec(5.0, 0.74, 0.14, 0.03)
+    barbs = build_barbs(
+        maps, barb_direction_field(maps["displacement"]), frame, rachis, BarbOptions()
+    )
+    same = barbs.barb_of_vertex()[:-1] == barbs.barb_of_vertex()[1:]
+    steps = np.linalg.norm(np.diff(barbs.points, axis=0), axis=1)[same]
+    assert steps.min() > 1e-4  # cm; segments are 0.2 cm, boundary pairs 0.004 cm apart

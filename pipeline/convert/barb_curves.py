@@ -378,9 +378,10 @@ def split_at_classes(
         g = sample_bilinear(ocellar, _to_uv(a + mid[:, None] * (b - a), aspect))
         same = np.sign(g - level) == below
         lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
-    t = 0.5 * (lo + hi)
-    before = a + np.clip(t - BOUNDARY_GAP, 0.0, 1.0)[:, None] * (b - a)
-    after = a + np.clip(t + BOUNDARY_GAP, 0.0, 1.0)[:, None] * (b - a)
+    # Kept a gap away from the segment's own ends: no two vertices of a barb coincide.
+    t = np.clip(0.5 * (lo + hi), 2.0 * BOUNDARY_GAP, 1.0 - 2.0 * BOUNDARY_GAP)
+    before = a + (t - BOUNDARY_GAP)[:, None] * (b - a)
+    after = a + (t + BOUNDARY_GAP)[:, None] * (b - a)
     at = np.repeat(seg + 1, 2)
     points = np.stack([before, after], axis=1).reshape(-1, 2)
     classes = np.stack([klass[seg], klass[seg + 1]], axis=1).ravel()
