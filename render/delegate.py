@@ -257,7 +257,7 @@ class StageDelegate:
     ) -> tuple[list, list[tuple[np.ndarray, np.ndarray]]]:
         """The prim's Mitsuba meshes (one per material) and their bounds, in ``matrix_usd``'s space
         (``surface``: the prim already as polygons, e.g. tessellated ribbons)."""
-        ribbon = surface is not None and prim.GetTypeName() == "BasisCurves"
+        curves_mesh = surface is not None and prim.GetTypeName() == "BasisCurves"
         surface = self._surface(prim) if surface is None else surface
         if surface is None:
             return [], []
@@ -266,7 +266,7 @@ class StageDelegate:
             mesh.material_groups(surface, self.time, self.diag)
         ):
             spec = self._material(material, prim)
-            if ribbon:
+            if curves_mesh:  # tessellated ribbons or tubes
                 spec = spec.on_ribbon(prim, self.diag)
             uv_primvar, attributes = spec.primvars_for(prim)
             triangles = mesh.build_triangle_mesh(
@@ -332,19 +332,22 @@ class StageDelegate:
         return entry
 
     def _curves(self, prim: Usd.Prim, matrix_usd: np.ndarray, world: bool = False) -> tuple:
-        """A ``BasisCurves`` prim: ribbons (authored normals) as a mesh like any gprim's, else one
-        Mitsuba curve shape (tubes) with its bound material."""
+        """A ``BasisCurves`` prim: ribbons (authored normals) as a mesh like any gprim's; tubes as
+        one Mitsuba curve shape with its bound material, or a tube mesh when the material reads a
+        primvar that varies on them."""
         if curves.has_normals(prim):
             ribbons = curves.ribbon_surface(prim, self.time, self.diag)
             if ribbons is not None:
                 return self._gprim(prim, matrix_usd, world, surface=ribbons)
+        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
+        spec = self._material(material if material else None, prim)
+        if curves.reads_varying_primvars(prim, spec.primvars):
+            tubes = curves.tube_surface(prim, self.time, self.diag)
+            return ([], []) if tubes is None else self._gprim(prim, matrix_usd, world, tubes)
         built = curves.curve_control_points(prim, matrix_usd, self.time, self.diag)
         if built is None:
             return [], []
         kind, control_points = built
-        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
-        spec = self._material(material if material else None, prim)
-        curves.warn_varying_primvars(prim, spec.primvars, self.diag)
         binding = spec.binding(prim, self.time, {})  # constant primvars only
         try:
             shape = curves.to_mitsuba_curves(kind, control_points, self._bsdf(spec, True, binding))

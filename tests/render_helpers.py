@@ -50,6 +50,24 @@ def quad(stage, path="/Quad", size=1.0, x0=None, st=True, double_sided=False, z=
     return mesh
 
 
+def feather_sheet(
+    stage, path, corners, uv="pavonine_featherUV", uv_type=Sdf.ValueTypeNames.TexCoord2fArray
+) -> UsdGeom.Mesh:
+    """A flat quad facing +Z over ``corners`` (counter-clockwise from its bottom left) whose
+    feather coordinate ``uv`` runs from (0, 0) to (1, 1): u along its first edge."""
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(corners)
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mesh.CreateNormalsAttr([(0, 0, 1)] * 4)
+    mesh.SetNormalsInterpolation("vertex")
+    mesh.CreateSubdivisionSchemeAttr("none")
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(uv, uv_type, "vertex").Set(
+        [(0, 0), (1, 0), (1, 1), (0, 1)]
+    )
+    return mesh
+
+
 def set_input(shader: UsdShade.Shader, name: str, value) -> UsdShade.Input:
     if isinstance(value, (tuple, list)):
         kind = Sdf.ValueTypeNames.Color3f if name in COLOR_INPUTS else Sdf.ValueTypeNames.Float3

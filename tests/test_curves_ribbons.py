@@ -171,3 +171,65 @@ def test_normal_along_the_curve_narrows_the_ribbon_to_nothing_there():
     surface, messages = tessellate(ribbon(STRAIGHT, [(1, 0, 0)] * 4))
     assert np.ptp(surface.topology.points[:, 1]) == 0.0
     assert len(messages) == 1 and "narrows to nothing" in messages[0]
+
+
+def test_tube_mesh_is_round_faces_out_and_does_not_twist():
+    """A helix as a tessellated tube: every ring at its radius, every face outward, and the
+    rings' frames turn about the curve by < 1° per sample (rotation-minimising)."""
+    from pavonine.render.curves import tube_surface
+
+    turns = np.linspace(0, 3 * np.pi, 9)
+    stage = Usd.Stage.CreateInMemory()
+    _STAGES.append(stage)
+    curves = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    curves.CreateTypeAttr("cubic")
+    curves.CreateBasisAttr("bspline")
+    curves.CreateWrapAttr("pinned")
+    curves.CreateCurveVertexCountsAttr([9])
+    curves.CreatePointsAttr([(np.cos(t), np.sin(t), 0.2 * t) for t in turns])
+    curves.CreateWidthsAttr([0.2])
+    curves.SetWidthsInterpolation("constant")
+    diag = Diagnostics()
+    surface = tube_surface(curves.GetPrim(), Usd.TimeCode.Default(), diag, sides=16)
+    assert diag.messages == []
+    rings = surface.topology.points.reshape(-1, 16, 3)
+    centre = rings.mean(axis=1)
+    assert np.linalg.norm(rings - centre[:, None], axis=2) == pytest.approx(0.1)
+    t = surface.topology
+    corners = t.points[t.face_vertex_indices[t.triangles]]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    ring_of_corner = t.face_vertex_indices[t.triangles[:, 0]] // 16
+    assert np.all(np.sum(normal * (corners[:, 0] - centre[ring_of_corner]), axis=1) > 0)
+    tangent = surface.primvars["pavonine_barbTangent"].values[::16]
+    r = rings[:, 0] - centre
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    back = turned(tangent[1:], tangent[:-1], r[1:])  # each frame turned back onto the previous
+    twist = np.degrees(np.arccos(np.clip(np.sum(back * r[:-1], axis=1), -1, 1)))
+    assert twist.max() < 1.0
+
+
+def turned(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``v`` turned by the smallest rotations taking unit vectors ``a`` onto ``b`` (Rodrigues)."""
+    axis = np.cross(a, b)
+    sin = np.linalg.norm(axis, axis=1, keepdims=True)
+    cos = np.sum(a * b, axis=1, keepdims=True)
+    k = axis / np.maximum(sin, 1e-30)
+    return v * cos + np.cross(k, v) * sin + k * np.sum(k * v, axis=1, keepdims=True) * (1 - cos)
+
+
+def test_non_finite_normals_read_as_zero_and_narrow_the_ribbon():
+    nan = float("nan")
+    surface, messages = tessellate(ribbon(STRAIGHT, [(nan, nan, nan)] * 2 + [(0, 0, 1)] * 2))
+    assert messages[0] == "/Barb: normals are NaN or infinite; those read as 0"
+    assert "narrows to nothing" in messages[1] and len(messages) == 2
+    assert np.all(np.isfinite(surface.topology.points))
+
+
+def test_widths_overshooting_below_zero_in_the_basis_are_clamped():
+    curves = ribbon(STRAIGHT, [(0, 0, 1)] * 4, basis="catmullRom")
+    curves.CreateWidthsAttr([1.0, 1.0, 0.0, 0.0])  # Catmull-Rom dips below 0 before the last 0
+    curves.SetWidthsInterpolation("vertex")
+    surface, messages = tessellate(curves, steps=8)
+    across = edges(surface)[:, 1] - edges(surface)[:, 0]
+    assert messages == [] and np.all(across[:, 1] <= 0)  # S = T × N = −Y: no edge crosses over
+    assert across[:, 1].max() == 0.0

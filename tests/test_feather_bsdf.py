@@ -11,7 +11,7 @@ from pavonine.backend import select_variant
 from pavonine.materials import optics
 from pavonine.materials.brdf import direction
 from pavonine.materials.parameters import preset
-from pavonine.render.feather_bsdf import PLUGIN_NAME, feather_bsdf_dict, register
+from pavonine.render.feather_bsdf import PLUGIN_NAME, PRIMVAR_SLOTS, feather_bsdf_dict, register
 
 select_variant()
 import drjit as dr
@@ -105,6 +105,32 @@ def test_plugin_eval_equals_analysis_model(ocellar_class, gradation, angle, shar
         ]
     )
     np.testing.assert_allclose(value, expected, rtol=2e-3, atol=2e-5)
+
+
+@pytest.mark.parametrize("as_texture", [False, True], ids=["constant", "texture"])
+def test_primvar_twins_take_the_primvars_units_and_win_over_the_maps(as_texture):
+    """``<map>_primvar`` slots (barbs' vertex primvars) in class index, t, w and degrees give
+    the BSDF of the maps' grey levels, over maps that say otherwise; the angle is 180° periodic."""
+    rng = np.random.default_rng(7)
+    n = 500
+    wi, wo = _random_directions(rng, n, 0.0), _random_directions(rng, n, 0.0)
+    lam = rng.uniform(360.0, 830.0, size=(n, 4))
+
+    def evaluate(d):
+        bsdf = mi.load_dict(d)
+        return np.array(bsdf.eval(mi.BSDFContext(), _interaction(wi, lam), mi.Vector3f(*wo.T)))
+
+    expected = evaluate(_plugin_dict(3, 0.6, 0.25, 0.7))
+    twins = _plugin_dict(0, 0.1, 0.8, 1.0)  # maps that disagree
+    for name, value in (
+        ("ocellar", 3),
+        ("gradation", 0.6),
+        ("angle", 45.0 - 180.0),
+        ("melanin", 0.7),
+    ):
+        slot = PRIMVAR_SLOTS[name]
+        twins[slot] = {"type": "uniform", "value": value} if as_texture else float(value)
+    np.testing.assert_allclose(evaluate(twins), expected, rtol=1e-5, atol=1e-7)
 
 
 @pytest.mark.parametrize("params", [TABLE1, GRADED], ids=["paper", "physical"])

@@ -18,19 +18,19 @@ THETA_I = 20.0  # sun 20° from the vane normal, in the plane of the barbule's l
 
 
 def patch_stage(path, params):
+    from render_helpers import feather_sheet
+
     from pavonine.schemas.authoring import create_feather_material
 
     stage = Usd.Stage.CreateNew(str(path))
-    mesh = UsdGeom.Mesh.Define(stage, "/Patch")
-    mesh.CreatePointsAttr([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)])
-    mesh.CreateFaceVertexCountsAttr([4])
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    mesh.CreateNormalsAttr([(0, 0, 1)] * 4)
-    mesh.SetNormalsInterpolation("vertex")
-    mesh.CreateSubdivisionSchemeAttr("none")
-    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
-        "pavonine:featherUV", Sdf.ValueTypeNames.Float2Array, "vertex"
-    ).Set([(0, 0), (1, 0), (1, 1), (0, 1)])  # u along +X: the barbule axis (angle map absent = 0)
+    # u along +X: the barbule axis (angle map absent = 0); the legacy uv name, as older assets
+    mesh = feather_sheet(
+        stage,
+        "/Patch",
+        [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)],
+        uv="pavonine:featherUV",
+        uv_type=Sdf.ValueTypeNames.Float2Array,
+    )
     material = create_feather_material(stage, "/Looks/Patch", params)
     from pxr import UsdShade
 

@@ -399,9 +399,12 @@ def test_a_primvar_reader_gets_its_attribute_and_the_mesh_stays_welded():
     assert np.allclose(np.array(params["vertex_wear"]), index)
 
 
-def test_varying_primvars_read_on_curves_are_warned():
-    """Mitsuba curves carry no attributes: a per-vertex displayColor (read by the no-material
-    fallback) is warned and the fallback colour used; a constant one is the curves' colour."""
+def test_tubes_whose_material_reads_a_varying_primvar_are_tessellated():
+    """Mitsuba curves carry no attributes: tubes with a per-vertex displayColor (read by the
+    no-material fallback) become a tube mesh carrying it; with a constant one (or none) they
+    stay Mitsuba curves, the constant being the curves' colour."""
+    import mitsuba as mi
+
     stage = Usd.Stage.CreateInMemory()
     curve = UsdGeom.BasisCurves.Define(stage, "/Hair")
     curve.CreateTypeAttr("linear")
@@ -415,19 +418,22 @@ def test_varying_primvars_read_on_curves_are_warned():
     def synced_curve():
         scene, diag = quiet(lambda d: StageDelegate(stage, Usd.TimeCode.Default(), d).sync())
         (shape,) = scene.shapes.values()
-        return str(shape), diag.messages
+        return shape, diag.messages
 
-    varying, messages = synced_curve()
-    assert messages == [
-        "/Hair: primvars:displayColor: non-constant primvars on curves are not supported "
-        "(Mitsuba curves carry none); the reader's fallback is used"
-    ]
+    tube, messages = synced_curve()
+    assert messages == [] and isinstance(tube, mi.Mesh)
+    params = mi.traverse(tube)
+    positions = np.array(params["vertex_positions"]).reshape(-1, 3)
+    red = np.array(params["vertex_displayColor"]).reshape(-1, 3)[:, 0]
+    assert np.allclose(red, 1.0 - positions[:, 0], atol=1e-6)  # red at x = 0, blue at x = 1
+    assert np.hypot(positions[:, 1], positions[:, 2]) == pytest.approx(0.05)
     colour.SetInterpolation("constant")
     colour.Set([(1, 0, 0)])
     red, messages = synced_curve()
-    assert messages == [] and red != varying
+    assert messages == [] and not isinstance(red, mi.Mesh)
     colour.GetAttr().Clear()
-    assert synced_curve() == (varying, [])  # the fallback: as if no displayColor were authored
+    plain, messages = synced_curve()
+    assert messages == [] and not isinstance(plain, mi.Mesh) and str(plain) != str(red)
 
 
 def test_sidedness_wrappers_follow_double_sided_and_leave_transmission_alone():

@@ -138,6 +138,12 @@ def curves(draw, name: str) -> str:
         draw(attribute("int[]", "curveVertexCounts", array([str(c) for c in counts]))),
         f"float[] widths = {array([number(w) for w in widths])}",
     ]
+    if draw(st.booleans()):  # ribbons: normals of any count, interpolation and value
+        interpolation = draw(st.sampled_from(["vertex", "varying", "uniform", "constant", "bad"]))
+        normals = draw(attribute("normal3f[]", "normals", array(draw(points(max_size=8)))))
+        body.append(f'{normals} (\n        interpolation = "{interpolation}"\n    )')
+        colours = array(draw(points(max_size=8)))
+        body.append(f'color3f[] primvars:displayColor = {colours} (interpolation = "vertex")')
     return f'def BasisCurves "{name}" {{\n    ' + "\n    ".join(body) + "\n}"
 
 

@@ -2,9 +2,8 @@
 
 USD (UsdGeomBasisCurves, "Tubes and Ribbons"): curves with both widths and normals are imaged as
 ribbons oriented in the direction of the interpolated normal vectors, the widths being the
-ribbon's width. Each segment is evaluated exactly in its basis (:mod:`.bases`) at
-:data:`STEPS` + 1 parameters (2 for ``linear``). At each sample: the point P, the tangent
-T = dP/du, the normal N interpolated as authored (``vertex`` with the basis, ``varying`` linearly
+ribbon's width. Each segment is evaluated exactly in its basis at a few parameters
+(:mod:`.sampling`). At each sample: the point P, the tangent T = dP/du, the normal N interpolated as authored (``vertex`` with the basis, ``varying`` linearly
 per segment, ``uniform`` per curve, ``constant``) and made perpendicular to the curve,
 N′ = normalize(N − (N·T̂)T̂), and the width w. The ribbon's edges are P ± (w/2)·S with
 S = normalize(T̂ × N′), and each quad (P−, P+, next P+, next P−) faces N′ (S × T̂ = N′).
@@ -20,29 +19,17 @@ feather BSDF's barbule frame starts from. A ribbon has no inside: it is shaded o
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from pxr import Usd, UsdGeom
 
 from pavonine.render import attributes
-from pavonine.render.curves.bases import (
-    DEFAULT_WIDTH,
-    CurveTopology,
-    basis_weights,
-    needed_values,
-    read_curves,
-    read_widths,
-    segment_windows,
-)
+from pavonine.render.curves.bases import CurveTopology, read_curves
+from pavonine.render.curves.sampling import STEPS, fits, sample_curves, strip_surface
 from pavonine.render.diagnostics import Diagnostics
-from pavonine.render.mesh import Surface, make_topology
-from pavonine.render.primvars import Primvar, read_primvar, read_primvars
+from pavonine.render.mesh import Surface
+from pavonine.render.primvars import Primvar, read_primvar
 
-STEPS = 4  # spans per cubic segment (a segment is exact at its ends; 4 spans: < 1 % of its sag)
-BARB_TANGENT = "pavonine_barbTangent"  # the feather BSDF's barb direction (shading.feather)
-_NORMALS, _WIDTHS = "normals", "widths"
-_WHAT = {"uniform": "curves", "vertex": "points", "varying": "varying values"}
+_NORMALS = "normals"
 
 
 def has_normals(prim: Usd.Prim) -> bool:
@@ -64,48 +51,22 @@ def ribbon_surface(
     normals = _normals(prim, topology, time, diag)
     if normals is None:
         return None
-    data = {_NORMALS: normals, _WIDTHS: _widths(prim, topology, time, diag)}
-    for name, primvar in read_primvars(prim, time, diag).items():
-        if name != _WIDTHS and _fits(primvar, topology, f"primvars:{name}", diag):
-            data[name] = primvar
-    samples = _sample(topology, data, steps)
+    samples = sample_curves(prim, topology, time, diag, {_NORMALS: normals}, steps)
     if samples is None:
-        diag.warn(topology.where, "no curve has enough points for its basis; skipped")
         return None
-    values, tangents, quads, quad_curve = samples
-    normal, side, bad = _frame(tangents, values[_NORMALS])
+    values = samples.values
+    normal, side, bad = _frame(samples.tangents, values[_NORMALS])
     if bad.any():
         diag.warn(
             topology.where,
             f"{int(bad.sum())} of {len(bad)} ribbon samples have a zero normal, a normal along "
             "the curve, or no curve direction; the ribbon narrows to nothing there",
         )
-    half = np.where(bad, 0.0, values[_WIDTHS][:, 0] / 2.0)[:, None]
+    half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
     points = np.stack([values["P"] - side * half, values["P"] + side * half], 1).reshape(-1, 3)
-    counts = np.full(len(quads), 4, dtype=np.int64)
-    surface_topology = make_topology(points, counts, quads.ravel(), False, topology.where, diag)
-    if surface_topology is None:
-        return None
-    primvars: dict[str, Primvar] = {}
-    for name, primvar in data.items():
-        if name in (_NORMALS, _WIDTHS):
-            continue
-        if primvar.interpolation == "constant":
-            primvars[name] = primvar
-        elif primvar.interpolation == "uniform":
-            primvars[name] = Primvar(primvar.values[quad_curve], "uniform", primvar.role)
-        else:
-            primvars[name] = Primvar(np.repeat(values[name], 2, 0), "vertex", primvar.role)
-    if BARB_TANGENT not in primvars:
-        unit = tangents / np.maximum(np.linalg.norm(tangents, axis=1, keepdims=True), 1e-30)
-        primvars[BARB_TANGENT] = Primvar(np.repeat(unit, 2, 0), "vertex", "Vector")
-    return Surface(
-        prim,
-        surface_topology,
-        normals=Primvar(np.repeat(normal, 2, 0), "vertex", "Normal"),
-        primvars=primvars,
-        double_sided=True,
-    )
+    a, b = samples.pairs[:, 0], samples.pairs[:, 1]
+    quads = np.stack([2 * a, 2 * a + 1, 2 * b + 1, 2 * b], axis=1)
+    return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag)
 
 
 def _normals(
@@ -122,109 +83,13 @@ def _normals(
             return None
         interpolation = str(UsdGeom.BasisCurves(prim).GetNormalsInterpolation())
         normals = Primvar(values, interpolation, "Normal")
-    if normals.values.shape[1] != 3 or not _fits(normals, topology, _NORMALS, diag, "tubes"):
+    tubes = "rendered as round tubes"
+    if normals.values.shape[1] != 3 or not fits(normals, topology, _NORMALS, diag, tubes):
         return None
+    if not np.all(np.isfinite(normals.values)):
+        diag.warn(topology.where, "normals are NaN or infinite; those read as 0")
+        normals.values = np.nan_to_num(normals.values, nan=0.0, posinf=0.0, neginf=0.0)
     return normals
-
-
-def _widths(
-    prim: Usd.Prim, topology: CurveTopology, time: Usd.TimeCode, diag: Diagnostics
-) -> Primvar:
-    """The ribbon widths as a primvar of their interpolation (1 scene unit when absent or unfit)."""
-    default = Primvar(np.array([[DEFAULT_WIDTH]]), "constant")
-    read = read_widths(prim, time, diag)
-    if read is None:
-        return default
-    widths = Primvar(read[0][:, None], read[1])
-    return widths if _fits(widths, topology, _WIDTHS, diag, "width 1") else default
-
-
-def _fits(
-    primvar: Primvar,
-    topology: CurveTopology,
-    name: str,
-    diag: Diagnostics,
-    instead: str = "ignored",
-) -> bool:
-    """Whether ``primvar`` has enough values for its interpolation on these curves (else warned)."""
-    interpolation = primvar.interpolation
-    if interpolation not in ("constant", "uniform", "vertex", "varying", "faceVarying"):
-        diag.warn(topology.where, f"{name} has unknown interpolation {interpolation!r}; {instead}")
-        return False
-    needed = needed_values(topology, interpolation)
-    if len(primvar.values) >= needed:
-        return True
-    what = _WHAT.get(interpolation, "varying values")
-    used = {"tubes": "rendered as round tubes", "width 1": "width 1 used"}.get(instead, instead)
-    diag.warn(
-        topology.where,
-        f"{interpolation} {name} has {len(primvar.values)} values for {needed} {what}; {used}",
-    )
-    return False
-
-
-def _sample(topology: CurveTopology, data: dict[str, Primvar], steps: int):
-    """Every segment evaluated at its sample parameters, curves of one length at a time.
-
-    Returns ``(values, tangents, quads, quad_curve)``: ``values`` maps ``"P"`` and each name of
-    ``data`` to per-sample (N, k) arrays, ``tangents`` (N, 3) are dP/du, the quads (Q, 4) index
-    the ribbon's vertices (2 per sample: the −S edge, then the +S edge), and ``quad_curve`` (Q,)
-    is each quad's curve. ``None`` when no curve has enough points.
-    """
-    kind = topology.kind
-    per_point = [n for n, pv in data.items() if pv.interpolation == "vertex"]
-    columns = [topology.points] + [data[n].values[: len(topology.points)] for n in per_point]
-    edges = np.cumsum([0] + [c.shape[1] for c in columns])
-    stacked = np.concatenate(columns, axis=1)
-    u = np.linspace(0.0, 1.0, steps + 1) if kind == "cubic" else np.array([0.0, 1.0])
-    weights, derivative = basis_weights(u, kind)
-    periodic = topology.wrap == "periodic"
-    varying = topology.varying_counts()
-    varying_start = np.concatenate([[0], np.cumsum(varying)[:-1]])
-    out: dict[str, list[np.ndarray]] = {n: [] for n in ["P", *data]}
-    tangents, quad_curve, quads = [], [], []
-    sample_count = 0
-    for count in np.unique(topology.counts):
-        curves = np.nonzero(topology.counts == count)[0]
-        index = topology.starts[curves][:, None] + np.arange(count)
-        windows = segment_windows(stacked[index], kind, topology.basis, topology.wrap)
-        if windows is None:
-            continue
-        g, s = len(curves), windows.shape[1]
-        n = g * s * len(u)  # samples: curve-major, then segment, then u
-        flat = functools.partial(_flat, n)
-
-        at = np.einsum("uo,gsok->gsuk", weights, windows)
-        tangents.append(flat(np.einsum("uo,gsok->gsuk", derivative, windows[..., :3])))
-        out["P"].append(flat(at[..., :3]))
-        for i, name in enumerate(per_point, start=1):
-            out[name].append(flat(at[..., edges[i] : edges[i + 1]]))
-        m = int(varying[curves[0]])
-        first = np.minimum(np.arange(s), m - 1)
-        second = (np.arange(s) + 1) % m if periodic else np.minimum(np.arange(s) + 1, m - 1)
-        lerp = u[None, None, :, None]
-        for name, primvar in data.items():
-            if primvar.interpolation in ("varying", "faceVarying"):
-                base = varying_start[curves][:, None]
-                a = primvar.values[base + first][:, :, None]
-                b = primvar.values[base + second][:, :, None]
-                out[name].append(flat(a + (b - a) * lerp))
-            elif primvar.interpolation in ("uniform", "constant"):
-                rows = curves if primvar.interpolation == "uniform" else np.zeros(g, int)
-                out[name].append(np.repeat(primvar.values[rows], s * len(u), axis=0))
-        segment = sample_count + np.arange(g * s)[:, None] * len(u)
-        base = (segment + np.arange(len(u) - 1)[None]).ravel()
-        quads.append(np.stack([2 * base, 2 * base + 1, 2 * base + 3, 2 * base + 2], 1))
-        quad_curve.append(np.repeat(curves, s * (len(u) - 1)))
-        sample_count += n
-    if not quads:
-        return None
-    values = {n: np.concatenate(v) for n, v in out.items() if v}
-    return values, np.concatenate(tangents), np.concatenate(quads), np.concatenate(quad_curve)
-
-
-def _flat(n: int, a: np.ndarray) -> np.ndarray:
-    return a.reshape(n, -1)
 
 
 def _frame(tangents: np.ndarray, normals: np.ndarray):
