@@ -76,11 +76,8 @@ def _png(data_url: str) -> np.ndarray:
 
 def _zones(view: dict, scene_camera: dict, folder: Path) -> np.ndarray:
     """Ocellar class per pixel (−1: not the vane or alpha ≤ 0.9), eroded by one pixel."""
-    from scipy import ndimage
-    from test_preview_delta_e import feather_hits
+    from ocellus_zones import zone_masks
 
-    from pavonine.pipeline.maps.io import read_map, sample_bilinear, sample_nearest
-    from pavonine.pipeline.maps.paint import ocellar_class
     from pavonine.pipeline.view.viewpoint import write_view_layer
 
     stub = SimpleNamespace(
@@ -91,14 +88,9 @@ def _zones(view: dict, scene_camera: dict, folder: Path) -> np.ndarray:
     )
     folder.mkdir(parents=True, exist_ok=True)
     layer, _ = write_view_layer(stub, view, folder)
-    uv, on_vane = feather_hits(layer, WIDTH, HEIGHT)
-    alpha = np.zeros((HEIGHT, WIDTH))
-    alpha[on_vane] = sample_bilinear(read_map(MAPS / "alpha.png", "alpha"), uv[on_vane])
-    zone = np.full((HEIGHT, WIDTH), -1)
-    zone[on_vane] = ocellar_class(sample_nearest(read_map(MAPS / "ocellar.png", "o"), uv[on_vane]))
     out = np.full((HEIGHT, WIDTH), -1)
-    for k in range(6):
-        out[ndimage.binary_erosion((zone == k) & (alpha > 0.9))] = k
+    for k, mask in zone_masks(layer, MAPS, WIDTH, HEIGHT).items():
+        out[mask] = k
     return out
 
 

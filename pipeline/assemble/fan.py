@@ -74,9 +74,32 @@ def _multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
 
 
+#: Suffix of a prototype that selects its component's ``barbs`` geometry variant.
+BARBS_SUFFIX = "_barbs"
+
+
+def prototype_name(component: str, geometry: str) -> str:
+    """The prototype of ``component`` at ``geometry``: the component's name for the sheet,
+    ``<component>_barbs`` for the barbs."""
+    return component if geometry == "sheet" else f"{component}{BARBS_SUFFIX}"
+
+
+def prototype_parts(name: str, components) -> tuple[str, str]:
+    """``(component, geometry)`` of a prototype name (inverse of :func:`prototype_name`)."""
+    if name not in components and name.endswith(BARBS_SUFFIX):
+        return name[: -len(BARBS_SUFFIX)], "barbs"
+    return name, "sheet"
+
+
+def _row_parts(row) -> list[str]:
+    return [row.component] + ([row.edge] if row.edge_count else [])
+
+
 def layout(recipe: TrainRecipe) -> Fan:
     """Every feather of ``recipe``'s fan (module docstring)."""
     prototypes = sorted(recipe.components)
+    barbed = sorted({c for row in recipe.rows if row.geometry == "barbs" for c in _row_parts(row)})
+    prototypes += [prototype_name(c, "barbs") for c in barbed]
     index = {name: i for i, name in enumerate(prototypes)}
     rng = np.random.default_rng(recipe.seed)
     jitter, variation = recipe.jitter, recipe.variation
@@ -87,10 +110,10 @@ def layout(recipe: TrainRecipe) -> Fan:
         n = row.count
         steps = (np.arange(n) + 0.5 + row.stagger) / n
         theta = math.radians(row.span_deg) * (steps - 0.5)
-        proto = np.full(n, index[row.component])
+        proto = np.full(n, index[prototype_name(row.component, row.geometry)])
         if row.edge_count:
-            proto[: row.edge_count] = index[row.edge]
-            proto[n - row.edge_count :] = index[row.edge]
+            proto[: row.edge_count] = index[prototype_name(row.edge, row.geometry)]
+            proto[n - row.edge_count :] = index[prototype_name(row.edge, row.geometry)]
         parts["proto"].append(proto)
         parts["theta"].append(theta)
         parts["radius"].append(np.full(n, row.radius_cm))

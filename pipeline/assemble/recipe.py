@@ -24,6 +24,8 @@ from pavonine.pipeline.convert.recipe import (
 )
 
 LODS = ("high", "medium", "low")
+#: The components' ``geometry`` variants a row may choose (docs/pipeline.md, "Barbs").
+GEOMETRIES = ("sheet", "barbs")
 #: Most feathers one train may hold (a real train has about 200; this is 10× that).
 MAX_FEATHERS = 2_000
 #: Bounds of the per-instance variation: the gradation offset moves the stacks along Table 1
@@ -47,6 +49,7 @@ class Row:
     edge: str | None = None  # component of the row's outermost feathers (fishtails)
     edge_count: int = 0  # that many at each end
     stagger: float = 0.0  # shift by this fraction of a step (eyes of a row between the last's)
+    geometry: str = "sheet"  # the components' geometry variant: "sheet" or "barbs"
 
 
 @dataclass(frozen=True)
@@ -146,6 +149,14 @@ def _parse_row(path: Path, index: int, table: Any, components: dict[str, Path]) 
             values[key] = _in_range(path, f"{prefix}.{key}", table[key], low, high)
     if "radius_cm" not in values:
         raise _fail(path, f"{prefix}.radius_cm", "missing (radius of the feathers' bases)")
+    if "geometry" in table:
+        if table["geometry"] not in GEOMETRIES:
+            raise _fail(
+                path,
+                f"{prefix}.geometry",
+                f"expected one of {', '.join(GEOMETRIES)}, got {table['geometry']!r}",
+            )
+        values["geometry"] = table["geometry"]
     row = Row(**values)
     if 2 * row.edge_count > row.count:
         raise _fail(

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.pipeline.assemble.fan import Fan, layout
+from pavonine.pipeline.assemble.fan import Fan, layout, prototype_parts
 from pavonine.pipeline.assemble.recipe import TrainRecipe, parse_train_recipe
 from pavonine.pipeline.convert.asset import staging_folder
 from pavonine.pipeline.errors import InputError
@@ -83,8 +83,9 @@ def write_train_layer(path: Path, recipe: TrainRecipe, fan: Fan, final_folder: P
     layer.TransferContent(memory.GetRootLayer())
     for name in fan.prototypes:
         spec = layer.GetPrimAtPath(f"/{recipe.name}/{INSTANCER}/Prototypes/{name}")
+        component, _ = prototype_parts(name, recipe.components)
         spec.referenceList.prependedItems = [
-            Sdf.Reference(asset_path(recipe.components[name], final_folder))
+            Sdf.Reference(asset_path(recipe.components[component], final_folder))
         ]
     if not layer.Export(str(path)):
         raise OSError(f"{path}: cannot write USD layer")
@@ -114,8 +115,18 @@ def _author(stage, recipe: TrainRecipe, fan: Fan):
     targets = []
     for name in fan.prototypes:
         proto = UsdGeom.Xform.Define(stage, f"{base}/Prototypes/{name}").GetPrim()
-        proto.GetReferences().AddReference(recipe.components[name].as_posix())
+        component, geometry = prototype_parts(name, recipe.components)
+        proto.GetReferences().AddReference(recipe.components[component].as_posix())
         proto.GetVariantSets().AddVariantSet("lod").SetVariantSelection(recipe.lod)
+        if geometry != "sheet":
+            variants = proto.GetVariantSets().GetVariantSet("geometry")
+            if geometry not in variants.GetVariantNames():
+                raise InputError(
+                    str(recipe.path),
+                    f"component {component!r} has no geometry {geometry!r} variant "
+                    "(convert it with [geometry.barbs] enabled)",
+                )
+            variants.SetVariantSelection(geometry)
         targets.append(proto.GetPath())
     instancer.CreatePrototypesRel().SetTargets(targets)
     instancer.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(fan.proto_indices))
@@ -156,7 +167,12 @@ def write_layout_png(path: Path, recipe: TrainRecipe, fan: Fan) -> None:
     # tip: the component's height (extentsHint) along its +Y, through the instance's rotation
     w, x, y, z = fan.orientations.T
     up = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=1)
-    heights = np.array([component_height(recipe.components[n]) for n in fan.prototypes])
+    heights = np.array(
+        [
+            component_height(recipe.components[prototype_parts(n, recipe.components)[0]])
+            for n in fan.prototypes
+        ]
+    )
     tips = fan.positions + up * (heights[fan.proto_indices] * fan.scales[:, 1])[:, None]
     fig, ax = plt.subplots(figsize=(9, 5.5), dpi=110)
     markers = ("o", "s", "^", "D", "v", "P")

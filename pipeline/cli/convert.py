@@ -38,6 +38,10 @@ JSON_SCHEMA = {
                         "additionalProperties": {"type": "integer"},
                     },
                     "seconds": {"type": "number", "description": "wall time of the conversion"},
+                    "barbs": {
+                        "type": "integer",
+                        "description": "barbs in the geometry = barbs variant (0: none)",
+                    },
                 },
             },
         },
@@ -146,6 +150,7 @@ def convert(
                     "asset": str(r.root),
                     "triangles": dict(r.triangles),
                     "seconds": round(sum(r.seconds.values()), 3),
+                    "barbs": r.barbs,
                 }
                 for r in results
                 if r.ok
@@ -162,7 +167,8 @@ def convert(
         if r.ok:
             tris = "/".join(f"{r.triangles[lod]:,}" for lod in ("high", "medium", "low"))
             total = sum(r.seconds.values())
-            say(f"ok      {r.root}  (triangles high/medium/low {tris}; {total:.1f} s)")
+            barbs = f"; {r.barbs:,} barbs" if r.barbs else ""
+            say(f"ok      {r.root}  (triangles high/medium/low {tris}{barbs}; {total:.1f} s)")
     for r in failed:
         click.echo(f"FAILED  {r.recipe}: {r.error}", err=True)
     summary = f"{len(results) - len(failed)} converted, {len(failed)} failed"

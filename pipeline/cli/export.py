@@ -47,11 +47,19 @@ JSON_SCHEMA = {
 @click.option(
     "--lod", default=None, help="Level of detail (the asset's 'lod' variant) [default: its own]."
 )
+@click.option(
+    "--geometry",
+    default=None,
+    help="The asset's 'geometry' variant: sheet or barbs (ribbon meshes with their displayColor "
+    "as COLOR_0) [default: its own].",
+)
 @json_option(JSON_SCHEMA)
 @requires("pygltflib")
 @max_pixels_option
 @one_line_errors
-def export(asset: Path, output: Path, lod: str | None, json_target: str | None) -> None:
+def export(
+    asset: Path, output: Path, lod: str | None, geometry: str | None, json_target: str | None
+) -> None:
     """Export ASSET (a root layer, or its folder) as a binary glTF 2.0 file.
 
     The meshes of one LOD in metres, +Y up, with normals and st as TEXCOORD_0; the baked
@@ -62,7 +70,7 @@ def export(asset: Path, output: Path, lod: str | None, json_target: str | None) 
     """
     from pavonine.pipeline.export.gltf import export_gltf
 
-    report = export_gltf(asset, output, lod)
+    report = export_gltf(asset, output, lod, geometry)
     triangles = sum(m["triangles"] for m in report.meshes)
     say(
         f"wrote   {report.output}: {len(report.meshes)} meshes, {triangles:,} triangles, "

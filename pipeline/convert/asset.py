@@ -13,6 +13,10 @@ Layout of ``OUTDIR/NAME/`` (every path inside is ``./``-relative, so the folder 
                              from the baked textures; baked UsdPreviewSurface) and
                              /NAME/Materials/Rachis; the bindings of Geom and Proxy meshes
     NAME_geo_<lod>.usdc      /NAME/Geom/Vane and /NAME/Geom/Rachis meshes
+    NAME_geo_barbs.usdc      /NAME/Geom/Barbs: every barb as a BasisCurves ribbon
+                             (pavonine.pipeline.convert.barb_layer); the root layer's variant
+                             set "geometry" = sheet (default) | barbs payloads it in the barbs
+                             variant and deactivates /NAME/Geom/Vane there
     NAME.mtlx                the MaterialX document of the two feather materials, and
     pavonine_feather.mtlx    Pavonine's node definition it includes
     maps/<map>.<ext>         the six maps as read: single-channel 16-bit PNG (half EXR for
@@ -42,6 +46,8 @@ from pavonine.pipeline.maps.io import DataMap, write_map
 from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
 
 LODS = ("high", "medium", "low")
+#: The ``geometry`` variant set: the painted sheet (default) or every barb as a ribbon.
+GEOMETRY_VARIANTS = ("sheet", "barbs")
 PROXY_LOD = "low"
 METERS_PER_UNIT = 0.01  # centimetres
 UP_AXIS = "Y"
@@ -76,6 +82,10 @@ class AssetNames:
 
     def geometry(self, lod: str) -> str:
         return f"{self.name}_geo_{lod}.usdc"
+
+    @property
+    def barbs(self) -> str:
+        return f"{self.name}_geo_barbs.usdc"
 
 
 def _layer_metadata(stage, name: str) -> None:
@@ -151,11 +161,15 @@ def write_material_layer(
     params: FeatherParameters,
     maps: Mapping[str, str],
     looks=None,
+    barbs: bool = False,
 ) -> None:
     """Write the material layer: the feather material (``PavonineFeatherAPI`` by
     ``pavonine.schemas.authoring.create_feather_material``), with ``looks`` (a
     :class:`pavonine.pipeline.shading.looks.Looks`) its MaterialX network, baked preview and
-    portable twin; the rachis material; and every mesh's binding, for ``Geom`` and ``Proxy``."""
+    portable twin; the rachis material; and every mesh's binding, for ``Geom`` and ``Proxy``.
+    With ``barbs``: also the barbs' preview material (their ``displayColor``,
+    :func:`pavonine.pipeline.convert.barb_layer.author_barbs_preview`), bound by the root layer's
+    ``barbs`` variant."""
     from pxr import Gf, Sdf, UsdGeom, UsdShade
 
     import pavonine  # noqa: F401  (registers the schema plugin before USD builds its registry)
@@ -195,12 +209,19 @@ def write_material_layer(
             prim = stage.OverridePrim(f"/{name}/{scope}/{mesh}")
             preview = materials.get(PREVIEW_MATERIALS.get(mesh, ""))
             bind(prim, materials[material], preview)
+    if barbs:
+        from pavonine.pipeline.convert.barb_layer import BARBS_PREVIEW, author_barbs_preview
+
+        author_barbs_preview(stage, materials_path.AppendChild(BARBS_PREVIEW))
     stage.GetRootLayer().Save()
 
 
-def write_root_layer(path: Path, name: str, version: str, default_lod: str = "high") -> None:
+def write_root_layer(
+    path: Path, name: str, version: str, default_lod: str = "high", barbs: bool = False
+) -> None:
     """Root layer: component model, assetInfo, the material reference, the ``lod`` variants
-    (``Geom``, purpose render) and the proxy (``Proxy``, the low LOD), and ``extentsHint``."""
+    (``Geom``, purpose render), with ``barbs`` the ``geometry`` variants (sheet | barbs, default
+    sheet), the proxy (``Proxy``, the low LOD), and ``extentsHint``."""
     from pxr import Kind, Sdf, Usd, UsdGeom
 
     names = AssetNames(name)
@@ -221,6 +242,8 @@ def write_root_layer(path: Path, name: str, version: str, default_lod: str = "hi
         with variant_set.GetVariantEditContext():
             prim.GetPayloads().AddPayload(f"./{names.geometry(lod)}")
     variant_set.SetVariantSelection(default_lod)
+    if barbs:
+        _author_geometry_variants(prim, names)
     geom = UsdGeom.Imageable(stage.OverridePrim(f"/{name}/{GEOM}"))
     geom.CreatePurposeAttr(UsdGeom.Tokens.render)
     proxy = UsdGeom.Scope.Define(stage, f"/{name}/{PROXY}")
@@ -235,6 +258,33 @@ def write_root_layer(path: Path, name: str, version: str, default_lod: str = "hi
     )
     stage.GetRootLayer().Save()
     set_extents_hint(path, name)
+
+
+def _author_geometry_variants(prim, names: AssetNames) -> None:
+    """The ``geometry`` variant set: ``sheet`` as the ``lod`` variants make it, ``barbs`` with the
+    barbs' layer payloaded, bound (the feather material; preview purpose: their displayColor)
+    and the sheet's vane deactivated (the rachis stays). Nothing of the barbs is in ``sheet``."""
+    from pxr import UsdShade
+
+    from pavonine.pipeline.convert.barb_layer import BARBS, BARBS_PREVIEW
+    from pavonine.pipeline.shading.usd import bind
+
+    stage = prim.GetStage()
+    base = prim.GetPath()
+    variant_set = prim.GetVariantSets().AddVariantSet("geometry")
+    for variant in GEOMETRY_VARIANTS:
+        variant_set.AddVariant(variant)
+    variant_set.SetVariantSelection("barbs")
+    with variant_set.GetVariantEditContext():
+        prim.GetPayloads().AddPayload(f"./{names.barbs}")
+        stage.OverridePrim(base.AppendPath(f"{GEOM}/Vane")).SetActive(False)
+        materials = base.AppendChild("Materials")
+        bind(
+            stage.OverridePrim(base.AppendPath(f"{GEOM}/{BARBS}")),
+            UsdShade.Material(stage.GetPrimAtPath(materials.AppendChild("Feather"))),
+            UsdShade.Material(stage.GetPrimAtPath(materials.AppendChild(BARBS_PREVIEW))),
+        )
+    variant_set.SetVariantSelection(GEOMETRY_VARIANTS[0])
 
 
 def set_extents_hint(root_path: Path, name: str) -> None:
@@ -333,16 +383,23 @@ def write_asset(
     maps: Mapping[str, DataMap],
     lods: Mapping[str, Sequence[MeshData]],
     looks=None,
+    barbs=None,
 ) -> Path:
     """Write every layer of the asset into ``folder`` (a staging folder); returns the root.
 
     ``looks`` (:class:`pavonine.pipeline.shading.looks.Looks`, after it wrote its files into
-    ``folder``) adds the MaterialX networks and the baked previews.
+    ``folder``) adds the MaterialX networks and the baked previews; ``barbs``
+    (:class:`pavonine.pipeline.convert.barb_curves.BarbCurves`) the ``geometry = barbs`` variant.
     """
     names = AssetNames(name)
     map_paths = write_maps(maps, folder)
-    write_material_layer(folder / names.material, name, params, map_paths, looks)
+    has_barbs = barbs is not None
+    write_material_layer(folder / names.material, name, params, map_paths, looks, has_barbs)
     for lod in LODS:
         write_geometry_layer(folder / names.geometry(lod), name, lods[lod])
-    write_root_layer(folder / names.root, name, version)
+    if has_barbs:
+        from pavonine.pipeline.convert.barb_layer import write_barbs_layer
+
+        write_barbs_layer(folder / names.barbs, name, barbs, GEOM)
+    write_root_layer(folder / names.root, name, version, barbs=has_barbs)
     return folder / names.root

@@ -4,7 +4,8 @@ One recipe runs the stages
 
     maps → mesh (silhouette-cut vane, rachis) → atlas (xatlas, coarse) →
     refine+displace (high LOD) → lods (medium, low: refine + quadric decimation) →
-    bake (textures over the atlas, MaterialX document) → write
+    barbs (every barb as a ribbon, ``[geometry.barbs]``) →
+    bake (textures over the atlas, the barbs' colours, MaterialX document) → write
 
 and its asset appears atomically. Many recipes run in worker processes (``jobs``); one
 failing recipe does not stop the others and the summary names each failure.
@@ -33,6 +34,8 @@ from pavonine.pipeline.convert.asset import (
     staging_folder,
     write_asset,
 )
+from pavonine.pipeline.convert.barb_curves import BarbCurves, build_barbs
+from pavonine.pipeline.convert.barb_layer import barb_colors
 from pavonine.pipeline.convert.mesh import RACHIS_SHARE, MeshData, build_base, build_lod
 from pavonine.pipeline.convert.rachis import RachisSpec
 from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
@@ -43,7 +46,7 @@ from pavonine.pipeline.maps.io import DataMap, check_aspects, read_data_map
 from pavonine.pipeline.maps.paint import MAP_NAMES
 from pavonine.pipeline.shading.looks import Looks
 
-STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "bake", "write")
+STAGES = ("maps", "mesh", "atlas", "refine+displace", "lods", "barbs", "bake", "write")
 
 
 @dataclass
@@ -54,10 +57,12 @@ class ConvertResult:
     name: str = ""
     root: Path | None = None
     triangles: dict[str, int] = field(default_factory=dict)
+    barbs: int = 0  # barbs in the ``geometry = barbs`` variant (0: none written)
     seconds: dict[str, float] = field(default_factory=dict)
     error: str | None = None
     bad_input: bool = False
     meshes: dict[str, list[MeshData]] | None = None  # only with ``keep_meshes``
+    barb_curves: BarbCurves | None = None  # only with ``keep_meshes``
 
     @property
     def ok(self) -> bool:
@@ -122,8 +127,9 @@ def build_meshes(
     recipe: Recipe,
     maps: dict[str, np.ndarray],
     timer: _Timer,
-) -> dict[str, list[MeshData]]:
-    """The three LODs of a recipe's feather (stages mesh, atlas, refine+displace, lods)."""
+) -> tuple[dict[str, list[MeshData]], BarbCurves | None]:
+    """The three LODs of a recipe's feather and, when the recipe enables them, its barbs
+    (stages mesh, atlas, refine+displace, lods, barbs)."""
     opts = recipe.geometry
     height, width = maps["alpha"].shape
     frame = FeatherFrame(opts.length_cm, width / height, opts.bend_cm, opts.cup_cm)
@@ -154,7 +160,11 @@ def build_meshes(
     with timer.stage("lods"):
         lods["medium"] = build_lod(geo, opts.lod.medium, decimate=True)
         lods["low"] = build_lod(geo, opts.lod.low, decimate=True)
-    return lods
+    if not opts.barbs.enabled:
+        return lods, None
+    with timer.stage("barbs"):
+        barbs = build_barbs(maps, geo.barb_field, frame, rachis, opts.barbs, opts.displacement_cm)
+    return lods, barbs
 
 
 def base_triangles_for(preferred: int, high: int) -> int:
@@ -190,7 +200,7 @@ def convert_recipe(
     with timer.stage("maps"):
         maps = load_maps(recipe)
     values = {name: data.values for name, data in maps.items()}
-    lods = build_meshes(recipe, values, timer)
+    lods, barbs = build_meshes(recipe, values, timer)
     with staging_folder(outdir, recipe.name, force) as folder:
         try:
             with timer.stage("bake"):
@@ -204,14 +214,20 @@ def convert_recipe(
                     recipe.material,
                     recipe.bake.resolution,
                 )
+                if barbs is not None:
+                    barbs.display_color = barb_colors(barbs, values, recipe.material)
             with timer.stage("write"):
-                write_asset(folder, recipe.name, recipe.version, recipe.material, maps, lods, looks)
+                write_asset(
+                    folder, recipe.name, recipe.version, recipe.material, maps, lods, looks, barbs
+                )
         except ParameterError as exc:
             raise InputError(f"{recipe.path}: {parameter_key(exc.field)}", exc.reason) from None
     result.root = target / f"{recipe.name}.usd"
     result.triangles = {lod: sum(m.triangle_count for m in lods[lod]) for lod in LODS}
+    result.barbs = 0 if barbs is None else barbs.barb_count
     if keep_meshes:
         result.meshes = lods
+        result.barb_curves = barbs
     return result
 
 

@@ -27,7 +27,8 @@ def _rachis_centre(frame: FeatherFrame, s: np.ndarray, lift: np.ndarray) -> np.n
     return frame.position(uv) + lift[:, None] * frame.normal(uv)
 
 
-def _rachis_radius(spec: RachisSpec, frame: FeatherFrame, s: np.ndarray) -> np.ndarray:
+def rachis_radius(spec: RachisSpec, frame: FeatherFrame, s: np.ndarray) -> np.ndarray:
+    """The shaft radius (cm) at feather-space heights ``s``, tapering from base to tip."""
     bottom = -spec.calamus_cm / frame.length
     t = np.clip((s - bottom) / (spec.top - bottom), 0.0, 1.0)
     return spec.radius_cm + (spec.tip_radius_cm - spec.radius_cm) * t**0.7
@@ -74,8 +75,8 @@ def rachis_positions(
     ring = ring / np.where(norm > 1e-12, norm, 1.0)[:, None]
     bottom = -spec.calamus_cm / frame.length
     s_in = np.clip(s, bottom, spec.top)
-    radius = _rachis_radius(spec, frame, s_in) * np.clip(coords[:, 3], 0.0, 1.0)
-    lift = 0.35 * _rachis_radius(spec, frame, s_in)
+    radius = rachis_radius(spec, frame, s_in) * np.clip(coords[:, 3], 0.0, 1.0)
+    lift = 0.35 * rachis_radius(spec, frame, s_in)
     centre = _rachis_centre(frame, s, lift)
     ds = 1e-4
     tangent = normalise(_rachis_centre(frame, s + ds, lift) - _rachis_centre(frame, s - ds, lift))

@@ -13,7 +13,7 @@ import math
 import os
 import re
 import tomllib
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +49,18 @@ class LodTargets:
 
 
 @dataclass(frozen=True)
+class BarbOptions:
+    """The barbs as ribbons (``[geometry.barbs]``; :mod:`pavonine.pipeline.convert.barb_curves`);
+    lengths in centimetres."""
+
+    enabled: bool = True  # write the ``geometry = barbs`` variant
+    spacing_cm: float = 0.225  # between barbs along the rachis, on each side
+    tip_barbs: int = 240  # barbs radiating from the rachis tip, per full turn
+    segment_cm: float = 0.2  # ribbon vertex spacing along a barb
+    width_share: float = 1.0  # ribbon width as a share of the local spacing between barbs
+
+
+@dataclass(frozen=True)
 class GeometryOptions:
     """Geometry options of a recipe (``[geometry]``); lengths in centimetres."""
 
@@ -65,6 +77,7 @@ class GeometryOptions:
     alpha_threshold: float = 0.25  # alpha (box-filtered to the mesh pitch) where the vane is cut
     base_triangles: int = 6_000  # coarse mesh atlased by xatlas before refinement
     lod: LodTargets = field(default_factory=LodTargets)
+    barbs: BarbOptions = field(default_factory=BarbOptions)
 
 
 #: Bake resolutions a recipe may ask for (texels along each side of the square atlas).
@@ -197,6 +210,8 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
                     f"high = {targets.high}, medium = {targets.medium}, low = {targets.low}",
                 )
             values["lod"] = targets
+        elif f.name == "barbs":
+            continue  # checked against the final length_cm below
         elif f.name == "base_triangles":
             values[f.name] = int(_number(path, key, raw, integer=True))
             if not 200 <= values[f.name] <= 60_000:
@@ -236,7 +251,55 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
         )
     if options.rachis_tip_radius_cm > options.rachis_radius_cm:
         raise _fail(path, "geometry.rachis_tip_radius_cm", "must not exceed rachis_radius_cm")
+    if "barbs" in table:
+        options = replace(options, barbs=_parse_barbs(path, table["barbs"], options))
     return options
+
+
+#: Finest barb spacing and ribbon segment, as a share of ``length_cm`` (a 30 cm feather: 0.15 mm
+#: and 0.3 mm), and most barbs radiating from the tip: they bound the barbs' vertex count.
+MIN_BARB_SPACING_SHARE = 1.0 / 2000.0
+MIN_SEGMENT_SHARE = 1.0 / 1000.0
+MAX_TIP_BARBS = 4000
+
+
+def _parse_barbs(path: Path, raw: Any, geometry: GeometryOptions) -> BarbOptions:
+    """``[geometry.barbs]``: every key checked, lengths against the feather's ``length_cm``."""
+    key = "geometry.barbs"
+    if not isinstance(raw, dict):
+        raise _fail(path, key, "expected a table [geometry.barbs]")
+    _check_keys(path, raw, {f.name for f in fields(BarbOptions)}, f"{key}.")
+    values: dict[str, Any] = {}
+    if "enabled" in raw:
+        if not isinstance(raw["enabled"], bool):
+            raise _fail(path, f"{key}.enabled", f"expected true or false, got {raw['enabled']!r}")
+        values["enabled"] = raw["enabled"]
+    if "tip_barbs" in raw:
+        count = int(_number(path, f"{key}.tip_barbs", raw["tip_barbs"], integer=True))
+        if not 4 <= count <= MAX_TIP_BARBS:
+            raise _fail(path, f"{key}.tip_barbs", f"must lie in [4, {MAX_TIP_BARBS}], got {count}")
+        values["tip_barbs"] = count
+    length = geometry.length_cm
+    for name, low in (
+        ("spacing_cm", MIN_BARB_SPACING_SHARE * length),
+        ("segment_cm", MIN_SEGMENT_SHARE * length),
+    ):
+        if name in raw:
+            value = float(_number(path, f"{key}.{name}", raw[name]))
+            high = 0.1 * length
+            if not low <= value <= high:
+                raise _fail(
+                    path,
+                    f"{key}.{name}",
+                    f"must lie in [{low:g}, {high:g}] cm for length_cm = {length:g}, got {value:g}",
+                )
+            values[name] = value
+    if "width_share" in raw:
+        share = float(_number(path, f"{key}.width_share", raw["width_share"]))
+        if share > 2.0:
+            raise _fail(path, f"{key}.width_share", f"must lie in (0, 2], got {share:g}")
+        values["width_share"] = share
+    return BarbOptions(**values)
 
 
 def _check_count(path: Path, key: str, value: float) -> None:

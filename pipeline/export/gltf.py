@@ -282,8 +282,76 @@ def _split_vertices(mesh) -> tuple[np.ndarray, np.ndarray]:
     return pairs, triangles.reshape(-1).astype(np.uint32)
 
 
-def export_gltf(asset: str | os.PathLike, output: str | os.PathLike, lod: str | None = None):
-    """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``."""
+def _select_geometry(stage, default, geometry: str, root) -> None:
+    """Select ``geometry`` in the asset's ``geometry`` variant set (session layer)."""
+    from pxr import Usd
+
+    variants = default.GetVariantSet("geometry")
+    if geometry not in variants.GetVariantNames():
+        known = ", ".join(variants.GetVariantNames()) or "none"
+        raise InputError("--geometry", f"{root} has no geometry {geometry!r} (variants: {known})")
+    with Usd.EditContext(stage, stage.GetSessionLayer()):
+        variants.SetVariantSelection(geometry)
+
+
+def _export_ribbons(out, prim, cache, default, scale, materials, report, children) -> None:
+    """One glTF mesh of a ribbon ``BasisCurves`` prim: its triangles, normals and displayColor
+    as ``COLOR_0``, with a vertex-colour material from its preview-purpose binding."""
+    from pxr import UsdGeom, UsdShade
+
+    from pavonine.pipeline.export.ribbons import ribbon_prim_mesh, vertex_colour_material
+
+    purpose = UsdGeom.Imageable(prim).ComputePurpose()
+    found = ribbon_prim_mesh(prim)
+    if found is None or purpose not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
+        return
+    ribbons, colours = found
+    gl = out.gl
+    matrix = np.array(cache.ComputeRelativeTransform(prim, default)[0], dtype=np.float64)
+    points = ribbons.points @ matrix[:3, :3] + matrix[3, :3]
+    normals = ribbons.normals @ np.linalg.inv(matrix[:3, :3]).T
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-20)
+    binding = UsdShade.MaterialBindingAPI(prim)
+    preview, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
+    key = f"{preview.GetPath()}#vertexColor" if preview else "#vertexColor"
+    if key not in materials:
+        name = preview.GetPrim().GetName() if preview else prim.GetName()
+        materials[key] = vertex_colour_material(out, preview, name)
+        report.materials.append(key.split("#")[0] or prim.GetName())
+    attributes = gl.Attributes(
+        POSITION=out.accessor((points * scale).astype(np.float32), gl.VEC3, gl.ARRAY_BUFFER, True),
+        NORMAL=out.accessor(normals.astype(np.float32), gl.VEC3, gl.ARRAY_BUFFER),
+    )
+    if colours is not None:
+        attributes.COLOR_0 = out.accessor(
+            np.clip(colours, 0.0, 1.0).astype(np.float32), gl.VEC3, gl.ARRAY_BUFFER
+        )
+    primitive = gl.Primitive(
+        attributes=attributes,
+        indices=out.accessor(ribbons.triangles.ravel(), gl.SCALAR, gl.ELEMENT_ARRAY_BUFFER),
+        material=materials[key],
+    )
+    out.doc.meshes.append(gl.Mesh(name=prim.GetName(), primitives=[primitive]))
+    out.doc.nodes.append(gl.Node(name=prim.GetName(), mesh=len(out.doc.meshes) - 1))
+    children.append(len(out.doc.nodes) - 1)
+    report.meshes.append(
+        {
+            "path": str(prim.GetPath()),
+            "vertices": len(ribbons.points),
+            "triangles": len(ribbons.triangles),
+        }
+    )
+
+
+def export_gltf(
+    asset: str | os.PathLike,
+    output: str | os.PathLike,
+    lod: str | None = None,
+    geometry: str | None = None,
+):
+    """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``;
+    ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes,
+    :mod:`pavonine.pipeline.export.ribbons`)."""
     from pxr import Tf, Usd, UsdGeom, UsdShade
 
     import pavonine  # noqa: F401  (registers the schema)
@@ -306,6 +374,8 @@ def export_gltf(asset: str | os.PathLike, output: str | os.PathLike, lod: str | 
             raise InputError("--lod", f"{root} has no lod {lod!r} (variants: {known})")
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             variants.SetVariantSelection(lod)
+    if geometry is not None:
+        _select_geometry(stage, default, geometry, root)
     if UsdGeom.GetStageUpAxis(stage) != UsdGeom.Tokens.y:
         raise InputError(str(root), "only +Y-up assets are exported (glTF is +Y up)")
     scale = UsdGeom.GetStageMetersPerUnit(stage)
@@ -316,6 +386,9 @@ def export_gltf(asset: str | os.PathLike, output: str | os.PathLike, lod: str | 
     materials: dict[str, int] = {}
     children = []
     for prim in Usd.PrimRange(default):
+        if prim.IsA(UsdGeom.BasisCurves):
+            _export_ribbons(out, prim, cache, default, scale, materials, report, children)
+            continue
         if not prim.IsA(UsdGeom.Mesh):
             continue
         purpose = UsdGeom.Imageable(prim).ComputePurpose()

@@ -1,0 +1,156 @@
+"""Barbs against the sheet, the sheet as yardstick, in the same run.
+
+1. **Convert** the shipped eye recipe twice, alternately, best of ``--repeat``: as shipped (with
+   its barbs) and with ``[geometry.barbs] enabled = false`` (the sheet only); prints both
+   totals, the barbs' own stages and the ratio (target <= 2x).
+2. **Render the hero view** (``assets/scenes/eye_feather_sun.usda``, the README's) with the
+   feather's ``geometry`` variant ``sheet`` and ``barbs``, each in a fresh process (its own peak
+   resident set): a warm-up pass, then the timed render; prints seconds, peak RSS and the
+   ratios (targets <= 2x each).
+3. ``--train``: the shipped train and the same train with its front row of eye feathers as
+   barbs (``rows.4.geometry = "barbs"``), at ``--train-resolution`` (1024x768) and ``--spp``;
+   prints the peak RSS of each and their ratio (target <= 1.5x).
+
+Usage: python benchmarks/bench_barbs.py [--resolution 512x768] [--spp 64] [--repeat 2] [--train]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).parents[1]
+RECIPE = REPO / "assets" / "recipes" / "eye_feather.toml"
+HERO = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
+TRAIN_RECIPE = REPO / "assets" / "recipes" / "peacock_train.toml"
+FRONT_ROW = "count = 20\nradius_cm = 8\n"
+sys.path.insert(0, str(Path(__file__).parent))
+
+
+def _recipes(folder: Path) -> dict[str, Path]:
+    """The eye recipe as shipped and without barbs, its map paths made absolute."""
+    text = RECIPE.read_text().replace('"maps/', f'"{RECIPE.parent / "maps"}/')
+    out = {"barbs": folder / "eye_barbs.toml", "sheet": folder / "eye_sheet.toml"}
+    out["barbs"].write_text(text)
+    out["sheet"].write_text(text + "\n[geometry.barbs]\nenabled = false\n")
+    return out
+
+
+def convert(folder: Path, repeat: int) -> dict[str, dict]:
+    """Best total convert seconds of each recipe, alternating."""
+    from pavonine.pipeline.convert.batch import convert_recipe
+
+    best: dict[str, dict] = {}
+    recipes = _recipes(folder)
+    for _ in range(repeat):
+        for name, recipe in recipes.items():
+            start = time.perf_counter()
+            result = convert_recipe(recipe, folder / name, force=True)
+            seconds = time.perf_counter() - start
+            if name not in best or seconds < best[name]["seconds"]:
+                best[name] = {"seconds": seconds, "stages": result.seconds, "barbs": result.barbs}
+    return best
+
+
+def _scene(folder: Path, geometry: str) -> Path:
+    """The hero scene with the feather's geometry variant selected (references made absolute)."""
+    asset = REPO / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
+    text = HERO.read_text().replace("@../feathers/eye_feather/eye_feather.usd@", f"@{asset}@")
+    selection = f'@{asset}@\n        variants = {{ string geometry = "{geometry}" }}'
+    path = folder / f"hero_{geometry}.usda"
+    path.write_text(text.replace(f"@{asset}@", selection, 1))
+    return path
+
+
+def _train_scene(folder: Path, barbs: bool) -> Path:
+    """The shipped train recipe assembled into ``folder`` (front row as barbs if ``barbs``)."""
+    from click.testing import CliRunner
+
+    from pavonine.pipeline.cli import cli
+
+    text = TRAIN_RECIPE.read_text().replace('"../feathers/', f'"{REPO / "assets" / "feathers"}/')
+    if barbs:
+        text = text.replace(FRONT_ROW, FRONT_ROW + 'geometry = "barbs"\n')
+    name = "train_barbs" if barbs else "train_sheet"
+    (folder / f"{name}.toml").write_text(text)
+    out = folder / name
+    result = CliRunner().invoke(
+        cli, ["assemble", "train", str(folder / f"{name}.toml"), "-o", str(out)]
+    )
+    if result.exit_code != 0:
+        raise SystemExit(result.output)
+    assembly = out / "peacock_train" / "peacock_train.usda"
+    scene = folder / f"{name}.usda"
+    scene.write_text(
+        (REPO / "assets" / "scenes" / "peacock_train.usda")
+        .read_text()
+        .replace("@../assemblies/peacock_train/peacock_train.usda@", f"@{assembly}@")
+    )
+    return scene
+
+
+def render(scene: Path, resolution: str, spp: int) -> dict:
+    """One render in a child process (bench_train.py's ``--one``: warm-up, timed render, RSS)."""
+    done = subprocess.run(
+        [sys.executable, str(Path(__file__).with_name("bench_train.py")), "--one", str(scene),
+         "--resolution", resolution, "--spp", str(spp)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--resolution", default="512x768", help="of the hero view")
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--repeat", type=int, default=2, help="converts of each, best taken")
+    parser.add_argument("--train", action="store_true", help="also the train's peak memory")
+    parser.add_argument("--train-resolution", default="1024x768")
+    parser.add_argument("--skip-convert", action="store_true")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="bench-barbs-") as tmp:
+        folder = Path(tmp)
+        if not args.skip_convert:
+            found = convert(folder, args.repeat)
+            sheet, barbs = found["sheet"], found["barbs"]
+            own = barbs["stages"].get("barbs", 0.0)
+            print(
+                f"convert eye, sheet only: {sheet['seconds']:6.1f} s; with {barbs['barbs']} barbs: "
+                f"{barbs['seconds']:6.1f} s (barbs stage {own:.1f} s, bake {barbs['stages']['bake']:.1f}"
+                f" s vs {sheet['stages']['bake']:.1f} s)"
+            )
+            print(
+                f"convert barbs / sheet: {barbs['seconds'] / sheet['seconds']:.2f}x (target <= 2x)"
+            )
+        hero = {g: render(_scene(folder, g), args.resolution, args.spp) for g in ("sheet", "barbs")}
+        for name, r in hero.items():
+            print(
+                f"hero {name:<6} {args.resolution} @ {args.spp} spp: {r['seconds']:6.1f} s "
+                f"({r['cpu_seconds']:.1f} s CPU, load {r['load']:.1f}), peak RSS {r['peak_mib']:.0f} MiB"
+            )
+        s, b = hero["sheet"], hero["barbs"]
+        print(
+            f"hero barbs / sheet: time {b['seconds'] / s['seconds']:.2f}x, "
+            f"peak memory {b['peak_mib'] / s['peak_mib']:.2f}x (targets <= 2x)"
+        )
+        if args.train:
+            trains = {
+                k: render(_train_scene(folder, k == "barbs"), args.train_resolution, args.spp)
+                for k in ("sheet", "barbs")
+            }
+            for name, r in trains.items():
+                print(
+                    f"train, front row {name:<6} {args.train_resolution} @ {args.spp} spp: "
+                    f"{r['seconds']:6.1f} s, peak RSS {r['peak_mib']:.0f} MiB"
+                )
+            ratio = trains["barbs"]["peak_mib"] / trains["sheet"]["peak_mib"]
+            print(f"train barbs front row / sheet: peak memory {ratio:.2f}x (target <= 1.5x)")
+
+
+if __name__ == "__main__":
+    main()
