@@ -39,6 +39,7 @@ from pavonine.pipeline.commit import commit_folder, staged_folder
 from pavonine.pipeline.convert.mesh import MeshData
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.maps.io import DataMap, write_map
+from pavonine.pipeline.truncation import save_whole
 from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
 
 LODS = ("high", "medium", "low")
@@ -142,7 +143,7 @@ def write_geometry_layer(path: Path, name: str, meshes: Sequence[MeshData]) -> N
         )
         tangent.Set(Vt.Vec3fArray.FromNumpy(mesh.barb_tangent.astype(np.float32)))
     del root
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
 
 
 def write_material_layer(
@@ -195,7 +196,7 @@ def write_material_layer(
             prim = stage.OverridePrim(f"/{name}/{scope}/{mesh}")
             preview = materials.get(PREVIEW_MATERIALS.get(mesh, ""))
             bind(prim, materials[material], preview)
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
 
 
 def write_root_layer(path: Path, name: str, version: str, default_lod: str = "high") -> None:
@@ -233,7 +234,7 @@ def write_root_layer(path: Path, name: str, version: str, default_lod: str = "hi
         f"Pavonine feather asset {name!r}: vane + rachis, three LODs (the low one also the "
         "proxy), PavonineFeatherAPI material with baked textures and MaterialX twins."
     )
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
     set_extents_hint(path, name)
 
 
@@ -248,7 +249,7 @@ def set_extents_hint(root_path: Path, name: str) -> None:
     cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), purposes, useExtentsHint=False)
     model = UsdGeom.ModelAPI.Apply(prim)
     model.SetExtentsHint(model.ComputeExtentsHint(cache))
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), root_path)
 
 
 def map_paths(maps: Mapping[str, DataMap]) -> dict[str, str]:

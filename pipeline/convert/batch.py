@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE
+from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE, name_too_long
 from pavonine.materials.parameters import ParameterError
 from pavonine.pipeline.commit import recover
 from pavonine.pipeline.convert.asset import (
@@ -183,6 +183,9 @@ def convert_recipe(
     result.name = recipe.name
     checkpoint("convert.recipe", recipe.name)
     outdir = Path(outdir)
+    too_long = name_too_long(recipe.name, outdir)
+    if too_long:
+        raise InputError(f"{recipe.path}: name", too_long)
     target = outdir / recipe.name
     if target.exists() and not force:
         raise InputError(str(target), "asset exists; pass --force to replace it")
