@@ -55,8 +55,15 @@ def streak_tensor(displacement: np.ndarray, max_size: int = 1024):
     gy = -gy_rows  # rows grow downward; v grows upward
     sigma = max(1.5, ORIENTATION_SCALE * d.shape[0])
     factor = max(1, math.ceil(max(d.shape) / max_size))
+    if factor == 1:
+        return tuple(
+            ndimage.gaussian_filter(g, sigma, mode="nearest") for g in (gx * gx, gx * gy, gy * gy)
+        )
+    # Both orders apply the same Gaussian and the same box: reducing the products first (they
+    # are formed at full resolution, so the streaks do not alias) and smoothing the reduced map
+    # with σ / factor costs factor² times less (49-texel σ at 8192: 33 M texels, 395 taps).
     return tuple(
-        area_reduce(ndimage.gaussian_filter(g, sigma, mode="nearest"), factor)
+        ndimage.gaussian_filter(area_reduce(g, factor), sigma / factor, mode="nearest")
         for g in (gx * gx, gx * gy, gy * gy)
     )
 
