@@ -255,7 +255,7 @@ def warnings_as_lines() -> Iterator[None]:
     the filters themselves are left as they are."""
 
     def show(message, category, filename, lineno, file=None, line=None):
-        log.warning("%s", message)
+        log.warning("%s", " ".join(str(message).split()))  # one line, whatever it held
 
     with warnings.catch_warnings():
         warnings.showwarning = show

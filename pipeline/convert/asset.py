@@ -266,13 +266,26 @@ def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
     EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.maps.io.write_map`).
     """
     out = map_paths(maps)
-    for key, data in maps.items():
-        write_map(
-            folder / out[key][2:],
-            data.values,
-            description=f"pavonine {key} map (paper section 3.3)",
-        )
+
+    def write(key: str) -> None:
+        description = f"pavonine {key} map (paper section 3.3)"
+        write_map(folder / out[key][2:], maps[key].values, description=description)
+
+    in_threads(write, list(maps))
     return out
+
+
+def in_threads(work, items: Sequence) -> list:
+    """``[work(item) for item in items]`` on up to one thread per core (OpenImageIO and NumPy
+    release the GIL while they code images: six 8192-pixel maps take 2.5 s of CPU each to write
+    and 1.5 s to read); the results in order, the first failing item's error raised."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    workers = max(1, min(len(items), os.cpu_count() or 1))
+    if workers == 1:
+        return [work(item) for item in items]
+    with ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(work, items))
 
 
 def _existing_ancestor(path: Path) -> Path:

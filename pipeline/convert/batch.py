@@ -29,6 +29,7 @@ from pavonine.pipeline.commit import recover
 from pavonine.pipeline.convert.asset import (
     LODS,
     check_outdir,
+    in_threads,
     map_paths,
     staging_folder,
     write_asset,
@@ -86,7 +87,8 @@ class _Timer:
 
 def load_maps(recipe: Recipe) -> dict[str, DataMap]:
     """Read the six maps and check them together (equal aspect; a visible silhouette)."""
-    maps = {name: read_data_map(recipe.maps[name], f"maps.{name}") for name in MAP_NAMES}
+    read = in_threads(lambda name: read_data_map(recipe.maps[name], f"maps.{name}"), MAP_NAMES)
+    maps = dict(zip(MAP_NAMES, read, strict=True))
     check_maps(recipe, {name: data.values for name, data in maps.items()})
     return maps
 
