@@ -87,6 +87,9 @@ class _Timer:
 
 def load_maps(recipe: Recipe) -> dict[str, DataMap]:
     """Read the six maps and check them together (equal aspect; a visible silhouette)."""
+    from pavonine.pipeline.groups import settle
+
+    settle([recipe.maps[name] for name in MAP_NAMES])  # crashed writers' commits, once, first
     read = in_threads(lambda name: read_data_map(recipe.maps[name], f"maps.{name}"), MAP_NAMES)
     maps = dict(zip(MAP_NAMES, read, strict=True))
     check_maps(recipe, {name: data.values for name, data in maps.items()})
