@@ -78,7 +78,11 @@ def convert_once(maps: Path, out: Path, label: str) -> None:
     start = time.perf_counter()
 
     def progress(stage: str) -> None:
-        print(f"  {label}: {stage} (at {time.perf_counter() - start:.1f} s)", file=sys.stderr)
+        print(
+            f"  {label}: {stage} (at {time.perf_counter() - start:.1f} s)",
+            file=sys.stderr,
+            flush=True,
+        )
 
     result = convert_recipe(recipe, out / "asset", force=True, report=progress)
     total = time.perf_counter() - start
