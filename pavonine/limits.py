@@ -12,6 +12,8 @@ One place for the budgets that keep hostile or mistaken input from exhausting th
 * :data:`MIN_MAP_SIDE`, :data:`MAX_MAP_ASPECT`: the shape of a feather's maps.
 * :data:`MAX_RECIPE_BYTES`: the size of a TOML recipe.
 * :data:`SEED_RANGE`: every seed (Mitsuba's sampler seed is a 32-bit unsigned integer).
+* :func:`name_too_long`: an asset name must fit the output's file system (``NAME_MAX`` with
+  the characters Pavonine's own file names add, :data:`NAME_OVERHEAD`, and ``PATH_MAX``).
 
 Files are checked to be *regular files* before they are opened for reading
 (:func:`regular_file`, :func:`read_small_file`): a FIFO would block forever, ``/dev/zero``
@@ -53,6 +55,47 @@ MAX_RECIPE_BYTES = 1 << 20
 SEED_RANGE = (0, 2**32 - 1)
 
 _override: int | None = None
+
+
+#: Bytes Pavonine's own file names add to an asset name, the longest of them: ``NAME.mtlx``'s
+#: temporary ``.NAME.pavonine-tmp-<pid>-<8 random>.mtlx`` (a Linux process id has at most 7
+#: digits); the staging folder ``.NAME.pavonine-staging-<pid>-<8 random>`` adds 35.
+NAME_OVERHEAD = len(".") + len(".pavonine-tmp-") + 7 + len("-") + 8 + len(".mtlx")
+_STAGING_OVERHEAD = len(".") + len(".pavonine-staging-") + 7 + len("-") + 8
+
+
+def name_too_long(name: str, outdir: str | os.PathLike) -> str | None:
+    """Why an asset ``name`` cannot be written under ``outdir`` (its file names would pass the
+    file system's ``NAME_MAX``, or its deepest path ``PATH_MAX``: ``os.pathconf`` of ``outdir``
+    or its nearest existing parent), or ``None``."""
+    folder = Path(os.path.abspath(outdir))
+    while not os.path.isdir(folder) and folder != folder.parent:
+        folder = folder.parent
+    name_max, path_max = (_pathconf(folder, key, fallback) for key, fallback in
+                          (("PC_NAME_MAX", 255), ("PC_PATH_MAX", 4096)))  # fmt: skip
+    length = len(os.fsencode(name))
+    if length + NAME_OVERHEAD > name_max:
+        return (
+            f"{length} characters is too long for a file name here: the file system allows "
+            f"{name_max} (NAME_MAX of {folder}) and the asset's files add up to {NAME_OVERHEAD} "
+            f"to the name; at most {name_max - NAME_OVERHEAD} characters"
+        )
+    base = len(os.fsencode(os.path.abspath(outdir))) + 2 + _STAGING_OVERHEAD + NAME_OVERHEAD
+    if base + 2 * length >= path_max:  # the deepest path: the .mtlx temporary in the staging
+        return (
+            f"{length} characters makes the asset's deepest path {base + 2 * length} bytes "
+            f"under {outdir}, past the file system's PATH_MAX of {path_max}; at most "
+            f"{max(0, (path_max - 1 - base) // 2)} characters here"
+        )
+    return None
+
+
+def _pathconf(folder: Path, key: str, fallback: int) -> int:
+    try:
+        value = os.pathconf(folder, key)
+    except (OSError, ValueError):
+        return fallback
+    return value if value > 0 else fallback
 
 
 def odd_aspects(

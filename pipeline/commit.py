@@ -44,6 +44,7 @@ from pathlib import Path
 
 from pavonine.pipeline.errors import TEMPORARY_MARK, InputError, write_error
 from pavonine.pipeline.faults import checkpoint
+from pavonine.pipeline.truncation import refuse_cut_short
 
 #: ``renameat2`` flag (linux/fs.h): swap the two paths atomically.
 RENAME_EXCHANGE = 2
@@ -142,7 +143,7 @@ def _staging_in(folder: Path, name: str, target: Path) -> Iterator[Path]:
             raise
         raise mapped from None
     finally:  # a fallback commit that could not finish keeps its manifest for recover()
-        if staging is not None and staging.exists() and _manifest(staging) is None:
+        if staging is not None and os.path.lexists(staging) and _manifest(staging) is None:
             shutil.rmtree(staging, ignore_errors=True)
 
 
@@ -164,11 +165,21 @@ def staged_folder(
     try:
         with _staging_in(target.parent, target.name, target) as staging:
             yield staging
+            refuse_files_cut_short(staging)
             checkpoint("staging.written", subject)
             commit_folder(staging, target, replace=replace, subject=subject)
     finally:
-        if not target.exists():
+        if not os.path.lexists(target):  # False, not an error, for a name the path refuses
             remove_if_empty(created)
+
+
+def refuse_files_cut_short(staging: Path) -> None:
+    """Check every image and crate layer written into ``staging`` is whole before it is
+    committed (:mod:`pavonine.pipeline.truncation`): a library's unreported short write is a
+    write error, never a committed file."""
+    for path in sorted(staging.rglob("*")):
+        if path.is_file() and not path.is_symlink():
+            refuse_cut_short(path)
 
 
 def commit_folder(
@@ -256,6 +267,7 @@ def staged_files(folder: str | os.PathLike, subject: str | None = None) -> Itera
     try:
         with _staging_in(folder, folder.name, folder) as staging:
             yield staging
+            refuse_files_cut_short(staging)
             names = sorted(p.name for p in staging.iterdir() if not p.is_dir())
             checkpoint("staging.written", subject)
             commit_files([(staging / n, folder / n) for n in names], subject)
@@ -291,9 +303,9 @@ def temporary_file(target: str | os.PathLike) -> Iterator[Path]:
             raise
         raise mapped from None
     finally:
-        if tmp.exists():
+        if os.path.lexists(tmp):
             tmp.unlink()
-        if not target.exists():
+        if not os.path.lexists(target):  # False, not an error, for a name the path refuses
             remove_if_empty(created)
 
 

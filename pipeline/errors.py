@@ -113,8 +113,11 @@ def write_error(
         if temporary is not None and exc.where.startswith(str(temporary)):
             return InputError(where + exc.where[len(str(temporary)) :], exc.message)
         return None
+    exc = _first_copy_error(exc)
     if isinstance(exc, OSError):
         named = os.fspath(exc.filename) if exc.filename is not None else ""
+        if exc.filename2 is not None and exc.errno in WRITE_ERRNOS:
+            named = os.fspath(exc.filename2)  # a copy (shutil): the source first, then the output
         inside = temporary is not None and named.startswith(str(temporary))
         if named and not (inside or named.startswith(where) or TEMPORARY_MARK in named):
             return None  # about another file (an input): it names itself
@@ -126,6 +129,20 @@ def write_error(
     if is_usd_error(exc):
         return InputError(where, f"cannot write: {usd_reason(exc)}")
     return None
+
+
+def _first_copy_error(exc: BaseException) -> BaseException:
+    """``shutil.copytree``'s collected ``shutil.Error`` as the ``OSError`` of its first file
+    (source, output) when that is a write error; ``exc`` itself otherwise."""
+    import shutil
+
+    if not isinstance(exc, shutil.Error) or not exc.args or not isinstance(exc.args[0], list):
+        return exc
+    for source, destination, why in exc.args[0]:
+        for number in WRITE_ERRNOS:
+            if os.strerror(number) in str(why):
+                return OSError(number, os.strerror(number), source, None, destination)
+    return exc
 
 
 def one_line_errors(func: F) -> F:
@@ -140,6 +157,8 @@ def one_line_errors(func: F) -> F:
             raise SystemExit(EXIT_BAD_INPUT) from None
         except OSError as exc:  # unwritable output, a file where a folder should be, …
             where = exc.filename if exc.filename is not None else "output"
+            if exc.filename2 is not None and exc.errno in WRITE_ERRNOS:
+                where = exc.filename2  # a copy: the output, not its source
             click.echo(f"error: {where}: {exc.strerror or exc}", err=True)
             raise SystemExit(EXIT_BAD_INPUT) from None
         except RuntimeError as exc:  # USD's Tf.ErrorException: a layer it cannot read or write
@@ -160,6 +179,7 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
     (:func:`pavonine.pipeline.commit.temporary_file`).
     """
     from pavonine.pipeline.commit import recover, temporary_file
+    from pavonine.pipeline.truncation import refuse_cut_short
 
     target = Path(target)
     recover(target.parent)  # what killed writers left here
@@ -169,4 +189,5 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
             umask = os.umask(0)
             os.umask(umask)
             tmp.chmod(0o666 & ~umask)
+            refuse_cut_short(tmp, target)  # libraries do not all report a short write
         os.replace(tmp, target)

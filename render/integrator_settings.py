@@ -120,7 +120,7 @@ def read_integrator(prim: Usd.Prim, diag: Diagnostics) -> IntegratorSpec:
         return IntegratorSpec()
     where = str(prim.GetPath())
     if "type" not in authored:
-        raise InputError(_field(authored[next(iter(authored))]), f"needs {INTEGRATOR}type too")
+        raise InputError(field_of(authored[next(iter(authored))]), f"needs {INTEGRATOR}type too")
     kind = _text(authored.pop("type"))
     if kind not in (*PATH_TYPES, "direct"):
         diag.warn(
@@ -150,13 +150,13 @@ def read_integrator(prim: Usd.Prim, diag: Diagnostics) -> IntegratorSpec:
     counts = dict(samples)
     if "shading_samples" in counts and counts.keys() & {"emitter_samples", "bsdf_samples"}:
         raise InputError(
-            _field(authored["shading_samples"]),
+            field_of(authored["shading_samples"]),
             "cannot be given with emitter_samples or bsdf_samples (Mitsuba's direct)",
         )
     shading = counts.get("shading_samples", 1)
     if counts.get("emitter_samples", shading) + counts.get("bsdf_samples", shading) == 0:
         first = authored[next(k for k in DIRECT_SAMPLES if k in counts)]
-        raise InputError(_field(first), "direct needs at least one emitter or BSDF sample")
+        raise InputError(field_of(first), "direct needs at least one emitter or BSDF sample")
     return replace(spec, samples=tuple(sorted(samples)))
 
 
@@ -166,7 +166,7 @@ def read_sample_count(prim: Usd.Prim) -> tuple[int | None, str]:
     attr = prim.GetAttribute(SAMPLE_COUNT)
     if not attr or not attr.HasAuthoredValue():
         return None, ""
-    return _integer(attr, minimum=1, maximum=None), _field(attr)
+    return _integer(attr, minimum=1, maximum=None), field_of(attr)
 
 
 def warn_unread(prim: Usd.Prim, diag: Diagnostics) -> None:
@@ -207,7 +207,7 @@ def is_honoured(name: str) -> bool:
     return name.startswith(INTEGRATOR) or name in (SAMPLE_COUNT, VARIANT)
 
 
-def _field(attr: Usd.Attribute) -> str:
+def field_of(attr: Usd.Attribute) -> str:
     """``layer: /Prim.attribute``, the layer being the strongest one authoring the value."""
     from pxr import Usd
 
@@ -220,7 +220,7 @@ def _value(attr: Usd.Attribute) -> Any:
     """The attribute's default value (time samples are not read: a render setting is one value)."""
     value = attr.Get()
     if value is None:
-        raise InputError(_field(attr), "has no default value (time samples are not read)")
+        raise InputError(field_of(attr), "has no default value (time samples are not read)")
     return value
 
 
@@ -228,11 +228,11 @@ def _integer(attr: Usd.Attribute, minimum: int, maximum: int | None) -> int:
     value = _value(attr)
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
     if not number or not math.isfinite(value) or value != int(value):
-        raise InputError(_field(attr), f"must be an integer, got {value!r}")
+        raise InputError(field_of(attr), f"must be an integer, got {value!r}")
     if int(value) < minimum:
-        raise InputError(_field(attr), f"must be at least {minimum}, got {int(value)}")
+        raise InputError(field_of(attr), f"must be at least {minimum}, got {int(value)}")
     if maximum is not None and int(value) > maximum:
-        raise InputError(_field(attr), f"must be at most {maximum:,}, got {int(value):,}")
+        raise InputError(field_of(attr), f"must be at most {maximum:,}, got {int(value):,}")
     return int(value)
 
 
@@ -240,11 +240,11 @@ def _flag(attr: Usd.Attribute) -> bool:
     value = _value(attr)
     if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
         return bool(value)
-    raise InputError(_field(attr), f"must be a bool, got {value!r}")
+    raise InputError(field_of(attr), f"must be a bool, got {value!r}")
 
 
 def _text(attr: Usd.Attribute) -> str:
     value = _value(attr)
     if not isinstance(value, str) or not value:
-        raise InputError(_field(attr), f"must be a non-empty string, got {value!r}")
+        raise InputError(field_of(attr), f"must be a non-empty string, got {value!r}")
     return value

@@ -25,6 +25,7 @@ from pavonine.pipeline.errors import InputError
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.integrator_settings import (
     IntegratorSpec,
+    field_of,
     is_honoured,
     read_integrator,
     read_sample_count,
@@ -164,21 +165,20 @@ def _read_base(
 ) -> ProductSpec:
     """``inherited`` with the values ``source`` authors (RenderSettingsBase attributes)."""
     spec = replace(inherited)
-    where = str(source.GetPath())
     resolution = source.GetResolutionAttr()
     if resolution.HasAuthoredValue():
         w, h = resolution.Get()
-        if w < 1 or h < 1:
-            diag.warn(where, f"resolution {w}x{h} is not positive; ignored")
-        else:
-            spec.resolution = (int(w), int(h))
+        if w < 1 or h < 1:  # the answer --resolution gets (parse_resolution)
+            raise InputError(
+                field_of(resolution), f"width and height must be positive, got {w}x{h}"
+            )
+        spec.resolution = (int(w), int(h))
     aspect = source.GetPixelAspectRatioAttr()
     if aspect.HasAuthoredValue():
         value = float(aspect.Get())
-        if value > 0 and np.isfinite(value):
-            spec.pixel_aspect = value
-        else:
-            diag.warn(where, f"pixelAspectRatio {value} is not positive; using 1")
+        if not (value > 0 and np.isfinite(value)):
+            raise InputError(field_of(aspect), f"must be a positive finite number, got {value}")
+        spec.pixel_aspect = value
     conform = source.GetAspectRatioConformPolicyAttr()
     if conform.HasAuthoredValue():
         spec.conform = str(conform.Get())

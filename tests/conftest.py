@@ -3,6 +3,7 @@
 import importlib.abc
 import importlib.util
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -15,6 +16,76 @@ import pytest
 # default on exec: handle it here, as an interactive session does.
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+# ------------------------------------------------------------------ raw warnings (issue 27)
+#: What a warning looks like when it reaches stderr without the command's ``warning: …`` line:
+#: Python's ``file.py:70: StageWarning: …`` (warnings.formatwarning), and NumPy's floating-point
+#: messages (``overflow encountered in cast``), however they got there.
+RAW_WARNING = re.compile(
+    r"^.*:\d+: \w*Warning: .*$|^.*\b(?:overflow|invalid value|divide by zero|underflow) "
+    r"encountered in \w+.*$",
+    re.MULTILINE,
+)
+#: Raw warnings seen in CLI runs during the current test (checked by ``_no_raw_warnings``).
+RAW_WARNINGS_SEEN: list[str] = []
+
+
+def raw_warnings(stderr: str | bytes | None) -> list[str]:
+    """The lines of ``stderr`` that are a raw Python or NumPy warning."""
+    if isinstance(stderr, bytes):
+        stderr = stderr.decode("utf-8", "replace")
+    return RAW_WARNING.findall(stderr or "")
+
+
+def _is_cli(args) -> bool:
+    """Whether a subprocess's command runs ``pavonine`` (the script or ``-m pavonine…cli``)."""
+    words = [args] if isinstance(args, (str, bytes, os.PathLike)) else list(args)
+    words = [os.fsdecode(w) if isinstance(w, (bytes, os.PathLike)) else str(w) for w in words]
+    return any(os.path.basename(w) == "pavonine" or w.startswith("pavonine.pipeline.cli")
+               or " pavonine " in f" {w} " for w in words)  # fmt: skip
+
+
+_communicate = subprocess.Popen.communicate
+
+
+def _checked_communicate(self, *args, **kwargs):
+    stdout, stderr = _communicate(self, *args, **kwargs)
+    if _is_cli(self.args):
+        RAW_WARNINGS_SEEN.extend(f"{self.args}: {line}" for line in raw_warnings(stderr))
+    return stdout, stderr
+
+
+subprocess.Popen.communicate = _checked_communicate
+
+
+def _check_cli_runner() -> None:
+    from click.testing import CliRunner
+
+    invoke = CliRunner.invoke
+
+    def checked_invoke(self, cli, args=None, *more, **kwargs):
+        result = invoke(self, cli, args, *more, **kwargs)
+        RAW_WARNINGS_SEEN.extend(f"{args}: {line}" for line in raw_warnings(result.stderr))
+        return result
+
+    CliRunner.invoke = checked_invoke
+
+
+_check_cli_runner()
+
+
+@pytest.fixture(autouse=True)
+def _no_raw_warnings():
+    """Session-wide: no CLI run of any test (a subprocess running ``pavonine``, or click's
+    runner in process) may print a raw Python or NumPy warning on stderr; every warning goes
+    through the command's ``warning: …`` line."""
+    RAW_WARNINGS_SEEN.clear()
+    yield
+    if RAW_WARNINGS_SEEN:
+        seen = "\n".join(RAW_WARNINGS_SEEN[:5])
+        RAW_WARNINGS_SEEN.clear()
+        pytest.fail(f"raw warnings reached stderr in CLI runs:\n{seen}", pytrace=False)
 
 
 def _drjit_load_error() -> str | None:

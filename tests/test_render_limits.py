@@ -128,24 +128,20 @@ def pixels(path: Path) -> np.ndarray:
 
 
 # -- RenderSettings resolution -----------------------------------------------------------------
-@pytest.mark.render
-def test_render_settings_resolution_zero_warns_and_renders_the_default_size(tmp_path):
-    """(0, 0) is not a size: warned (naming the settings prim and attribute), 512×512 rendered."""
-    stage = scene(tmp_path, resolution="(0, 0)")
-    out = tmp_path / "zero.exr"
-    run = render(stage, out, "--resolution", "16x12")  # the CLI size keeps the test fast
-    assert run.returncode == 0, run.stderr
-    assert "/Render/Settings: resolution 0x0 is not positive; ignored" in run.stderr
-    assert pixels(out).shape == (12, 16, 3)
-
-
-@pytest.mark.render
-def test_render_settings_resolution_negative_warns_and_is_ignored(tmp_path):
-    stage = scene(tmp_path, resolution="(-16, 12)")
-    run = render(stage, tmp_path / "neg.exr", "--resolution", "16x12")
-    assert run.returncode == 0, run.stderr
-    assert "/Render/Settings: resolution -16x12 is not positive; ignored" in run.stderr
-    assert "Traceback" not in run.stderr
+@pytest.mark.parametrize("value", ["(0, 0)", "(-64, 64)", "(16, 0)"])
+def test_render_settings_resolution_not_positive_is_refused_like_the_flag(tmp_path, value):
+    """One answer for one bad value (issue 27): (0, 0) or (−64, 64) in the stage is refused as
+    ``--resolution 0x0`` is, naming the layer and the attribute, even with ``--resolution``
+    given; nothing is written."""
+    stage = scene(tmp_path, resolution=value)
+    out = tmp_path / "bad.exr"
+    w, h = (int(v) for v in value.strip("()").split(","))
+    for args in ((), ("--resolution", "16x12")):
+        line = assert_one_error(render(stage, out, *args), f"{stage}: /Render/Settings.resolution")
+        assert line.endswith(f"width and height must be positive, got {w}x{h}"), line
+        assert not out.exists()
+    flag = assert_one_error(render(stage, out, "--resolution", "0x0"), "--resolution")
+    assert "width and height must be positive" in flag
 
 
 def test_render_settings_resolution_100000x100000_is_refused_before_rendering(tmp_path):
@@ -167,16 +163,15 @@ def test_max_pixels_flag_lifts_and_lowers_the_ceiling(tmp_path):
 
 
 # -- pixelAspectRatio ----------------------------------------------------------------------------
-@pytest.mark.render
-@pytest.mark.parametrize("value", ["nan", "inf"])
-def test_pixel_aspect_ratio_nan_or_inf_warns_and_uses_square_pixels(tmp_path, value):
+@pytest.mark.parametrize("value", ["nan", "inf", "0", "-2"])
+def test_pixel_aspect_ratio_not_positive_and_finite_is_refused_naming_layer_and_attribute(
+    tmp_path, value
+):
     stage = scene(tmp_path, settings=f"float pixelAspectRatio = {value}")
     out = tmp_path / "aspect.exr"
-    run = render(stage, out)
-    assert run.returncode == 0, run.stderr
-    assert f"/Render/Settings: pixelAspectRatio {value} is not positive; using 1" in run.stderr
-    image = pixels(out)
-    assert image.shape == (12, 16, 3) and np.isfinite(image).all()
+    line = assert_one_error(render(stage, out), f"{stage}: /Render/Settings.pixelAspectRatio")
+    assert "must be a positive finite number" in line, line
+    assert not out.exists()
 
 
 def test_pixel_aspect_ratio_huge_is_refused_by_the_pixel_ceiling(tmp_path):

@@ -206,3 +206,54 @@ def test_an_os_error_about_an_input_is_not_called_a_write_error(tmp_path):
     missing = OSError(errno.ENOENT, "No such file or directory", "/inputs/maps/alpha.png")
     staging = tmp_path / ".a.pavonine-staging-1-x"
     assert write_error(missing, tmp_path / "a", staging) is None
+
+
+#: tmpfs sizes that stop ``convert`` of the tiny recipe at different writes (measured by a sweep
+#: of 16k…540k, issue 27): 16k a baked texture (libpng left it empty), 32k the copy of the node
+#: definition pavonine_feather.mtlx (named the package's source file before), 48k the MaterialX
+#: document (MaterialX wrote 4,096 of 10,744 bytes and said nothing), 128k a USD layer (64k: a
+#: map). With the old asset on the disk (--force): 300k the MaterialX document, 400k a layer.
+NEW_ASSET_DISKS = ("16k", "32k", "48k", "128k")
+OLD_ASSET_DISKS = ("300k", "400k")
+
+
+@pytest.mark.faults
+@pytest.mark.convert
+@pytest.mark.parametrize(
+    "size, force", [(s, False) for s in NEW_ASSET_DISKS] + [(s, True) for s in OLD_ASSET_DISKS]
+)
+def test_convert_on_a_full_disk_names_the_output_at_every_write(tiny_recipe, tmp_path, size, force):
+    """Whichever write the disk fills at (a texture, the copied node definition, a document, a
+    map, a layer), the one line names the asset the user asked for and says the disk is full;
+    nothing is left and an old asset stays intact."""
+    with small_tmpfs(tmp_path / "disk", size=size) as disk:
+        old = None
+        if force:
+            first = pavonine("convert", tiny_recipe, "-o", disk / "out", "-q")
+            assert first.returncode == 0, first.stderr
+            old = {p: p.read_bytes() for p in (disk / "out").rglob("*") if p.is_file()}
+        run = pavonine("convert", tiny_recipe, "-o", disk / "out", *(["--force"] * force))
+        one_line_error(run, disk / "out" / "tiny", FULL)
+        assert "materials/pavonine_feather.mtlx" not in run.stderr
+        if force:
+            assert {p: p.read_bytes() for p in (disk / "out").rglob("*") if p.is_file()} == old
+            assert sorted(p.name for p in (disk / "out").iterdir()) == ["tiny"]
+        else:
+            nothing_in(disk)
+
+
+@pytest.mark.faults
+def test_a_png_cut_short_by_a_full_disk_is_an_error_not_a_committed_file(tmp_path):
+    """libpng reports no short write: a 1 MB PNG on a 64 KB disk was kept cut to 64 KB and the
+    writer returned normally (a command whose last write it was exited 0)."""
+    import numpy as np
+
+    from pavonine.pipeline.maps.io import write_map
+
+    noise = np.random.default_rng(3).random((1024, 512), dtype=np.float32)  # ~1 MB as PNG
+    with small_tmpfs(tmp_path / "disk", size="64k") as disk:
+        with pytest.raises(InputError) as caught:
+            write_map(disk / "alpha.png", noise)
+        assert caught.value.where == str(disk / "alpha.png")
+        assert FULL in caught.value.message and "cut short" in caught.value.message
+        nothing_in(disk)

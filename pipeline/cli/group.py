@@ -7,6 +7,8 @@
 * Usage errors (unknown option, bad value, missing argument), bad input
   (:class:`~pavonine.pipeline.errors.InputError`) and a missing optional extra each print one line
   ``error: <where>: <message>`` on stderr and exit with status 2.
+* Every warning, a library's included, is the command's own ``warning: …`` line
+  (:func:`~pavonine.pipeline.cli.options.warnings_as_lines`), never Python's ``file:line:``.
 * Ctrl-C (``KeyboardInterrupt``) prints ``error: <command>: interrupted`` and exits with 130
   (128 + SIGINT, as shells do).
 """
@@ -109,11 +111,11 @@ class PavonineGroup(click.Group):
         return _add_global_options(command)
 
     def invoke(self, ctx: click.Context):
-        from pavonine.pipeline.cli.options import log
+        from pavonine.pipeline.cli.options import log, warnings_as_lines
         from pavonine.pipeline.cli.usd_diagnostics import usd_warnings_to_log
 
         try:
-            with usd_warnings_to_log(log, ctx.meta):
+            with usd_warnings_to_log(log, ctx.meta), warnings_as_lines():
                 return super().invoke(ctx)
         except KeyboardInterrupt:
             command = f"{ctx.command_path} {ctx.invoked_subcommand or ''}".strip()

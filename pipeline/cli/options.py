@@ -248,6 +248,20 @@ def warnings_to_log(*categories: type[Warning]) -> Iterator[None]:
         yield
 
 
+@contextlib.contextmanager
+def warnings_as_lines() -> Iterator[None]:
+    """Every warning Python's filters let through (a library's, or one no command routed)
+    becomes the command's own ``warning: …`` line, never Python's ``file:line: Category: …``;
+    the filters themselves are left as they are."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        log.warning("%s", " ".join(str(message).split()))  # one line, whatever it held
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
+
+
 def show_progress() -> bool:
     """Progress bars are shown: not ``-q``, and stderr is a terminal."""
     return not quiet() and sys.stderr.isatty()

@@ -225,7 +225,7 @@ def estimate_noise_variance(rgb: np.ndarray) -> np.ndarray:
     for c in range(rgb.shape[2]):
         response = convolve(rgb[:, :, c].astype(np.float64), kernel, mode="reflect")
         variance[:, :, c] = uniform_filter(response**2, size=5, mode="reflect") / 36.0
-    return variance.astype(np.float32)
+    return variance  # float64: the variance of float32 values beyond 1.8e19 overflows float32
 
 
 def check_same_shape(test: LoadedImage, ref: LoadedImage) -> None:
@@ -324,7 +324,7 @@ def stat_test(
     alpha = sidak_alpha(significance, n_tests)
     z_critical = float(ndtri(1.0 - alpha / 2.0))
 
-    scale = float(np.mean(np.abs(ref))) or 1.0
+    scale = float(np.mean(np.abs(ref), dtype=np.float64)) or 1.0
     scales: list[ScaleOutcome] = []
     ratios: list[np.ndarray] = []
     for b in sizes:

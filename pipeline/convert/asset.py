@@ -43,6 +43,7 @@ from pavonine.pipeline.commit import commit_folder, staged_folder
 from pavonine.pipeline.convert.mesh import MeshData
 from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.maps.io import DataMap, write_map
+from pavonine.pipeline.truncation import save_whole
 from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
 
 LODS = ("high", "medium", "low")
@@ -152,7 +153,7 @@ def write_geometry_layer(path: Path, name: str, meshes: Sequence[MeshData]) -> N
         )
         tangent.Set(Vt.Vec3fArray.FromNumpy(mesh.barb_tangent.astype(np.float32)))
     del root
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
 
 
 def write_material_layer(
@@ -213,7 +214,7 @@ def write_material_layer(
         from pavonine.pipeline.convert.barb_layer import BARBS_PREVIEW, author_barbs_preview
 
         author_barbs_preview(stage, materials_path.AppendChild(BARBS_PREVIEW))
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
 
 
 def write_root_layer(
@@ -256,7 +257,7 @@ def write_root_layer(
         f"Pavonine feather asset {name!r}: vane + rachis, three LODs (the low one also the "
         "proxy), PavonineFeatherAPI material with baked textures and MaterialX twins."
     )
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
     set_extents_hint(path, name)
 
 
@@ -298,7 +299,7 @@ def set_extents_hint(root_path: Path, name: str) -> None:
     cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), purposes, useExtentsHint=False)
     model = UsdGeom.ModelAPI.Apply(prim)
     model.SetExtentsHint(model.ComputeExtentsHint(cache))
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), root_path)
 
 
 def map_paths(maps: Mapping[str, DataMap]) -> dict[str, str]:
@@ -315,13 +316,26 @@ def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
     EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.maps.io.write_map`).
     """
     out = map_paths(maps)
-    for key, data in maps.items():
-        write_map(
-            folder / out[key][2:],
-            data.values,
-            description=f"pavonine {key} map (paper section 3.3)",
-        )
+
+    def write(key: str) -> None:
+        description = f"pavonine {key} map (paper section 3.3)"
+        write_map(folder / out[key][2:], maps[key].values, description=description)
+
+    in_threads(write, list(maps))
     return out
+
+
+def in_threads(work, items: Sequence) -> list:
+    """``[work(item) for item in items]`` on up to one thread per core (OpenImageIO and NumPy
+    release the GIL while they code images: six 8192-pixel maps take 2.5 s of CPU each to write
+    and 1.5 s to read); the results in order, the first failing item's error raised."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    workers = max(1, min(len(items), os.cpu_count() or 1))
+    if workers == 1:
+        return [work(item) for item in items]
+    with ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(work, items))
 
 
 def _existing_ancestor(path: Path) -> Path:

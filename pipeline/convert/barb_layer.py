@@ -20,6 +20,7 @@ import numpy as np
 
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.convert.barb_curves import BarbCurves
+from pavonine.pipeline.truncation import save_whole
 from pavonine.schemas.authoring import FEATHER_UV_PRIMVAR
 
 BARBS = "Barbs"
@@ -111,7 +112,7 @@ def write_barbs_layer(path: Path, name: str, barbs: BarbCurves, geom: str = "Geo
         "Barbs as ribbons (pavonine convert, [geometry.barbs]): normals = vane normal, widths = "
         "barb + barbules span thinned by the alpha map's coverage; primvars sampled from the maps."
     )
-    stage.GetRootLayer().Save()
+    save_whole(stage.GetRootLayer(), path)
 
 
 def author_barbs_preview(stage, path) -> object:

@@ -50,13 +50,24 @@ PULL_TRUST = 0.25
 def streak_tensor(displacement: np.ndarray, max_size: int = 1024):
     """Smoothed structure tensor ``(J₁₁, J₁₂, J₂₂)`` of the map (x right, y up), reduced to at
     most ``max_size`` texels along its longer side after smoothing."""
-    d = np.asarray(displacement, dtype=np.float64)
+    factor = max(1, math.ceil(max(displacement.shape) / max_size))
+    # A map reduced afterwards is differentiated in float32: a map is 16-bit at most, and the
+    # float64 gradient of 33 M texels (8192) cost 3 s of CPU of the 0.3 s float32 takes.
+    d = np.asarray(displacement, dtype=np.float64 if factor == 1 else np.float32)
     gy_rows, gx = np.gradient(d)
     gy = -gy_rows  # rows grow downward; v grows upward
     sigma = max(1.5, ORIENTATION_SCALE * d.shape[0])
-    factor = max(1, math.ceil(max(d.shape) / max_size))
+    if factor == 1:
+        return tuple(
+            ndimage.gaussian_filter(g, sigma, mode="nearest") for g in (gx * gx, gx * gy, gy * gy)
+        )
+    # Both orders apply the same Gaussian and the same box: reducing the products first (they
+    # are formed at full resolution, so the streaks do not alias) and smoothing the reduced map
+    # with σ / factor costs factor² times less (49-texel σ at 8192: 33 M texels, 395 taps).
     return tuple(
-        area_reduce(ndimage.gaussian_filter(g, sigma, mode="nearest"), factor)
+        ndimage.gaussian_filter(
+            area_reduce(g, factor).astype(np.float64), sigma / factor, mode="nearest"
+        )
         for g in (gx * gx, gx * gy, gy * gy)
     )
 

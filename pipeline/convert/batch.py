@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE
+from pavonine.limits import MAX_MAP_ASPECT, MIN_MAP_SIDE, name_too_long
 from pavonine.materials.parameters import ParameterError
 from pavonine.pipeline.commit import recover
 from pavonine.pipeline.convert.asset import (
     LODS,
     check_outdir,
+    in_threads,
     map_paths,
     staging_folder,
     write_asset,
@@ -91,7 +92,11 @@ class _Timer:
 
 def load_maps(recipe: Recipe) -> dict[str, DataMap]:
     """Read the six maps and check them together (equal aspect; a visible silhouette)."""
-    maps = {name: read_data_map(recipe.maps[name], f"maps.{name}") for name in MAP_NAMES}
+    from pavonine.pipeline.groups import settle
+
+    settle([recipe.maps[name] for name in MAP_NAMES])  # crashed writers' commits, once, first
+    read = in_threads(lambda name: read_data_map(recipe.maps[name], f"maps.{name}"), MAP_NAMES)
+    maps = dict(zip(MAP_NAMES, read, strict=True))
     check_maps(recipe, {name: data.values for name, data in maps.items()})
     return maps
 
@@ -193,6 +198,9 @@ def convert_recipe(
     result.name = recipe.name
     checkpoint("convert.recipe", recipe.name)
     outdir = Path(outdir)
+    too_long = name_too_long(recipe.name, outdir)
+    if too_long:
+        raise InputError(f"{recipe.path}: name", too_long)
     target = outdir / recipe.name
     if target.exists() and not force:
         raise InputError(str(target), "asset exists; pass --force to replace it")

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from pavonine.limits import read_small_file
+from pavonine.limits import name_too_long, read_small_file
 from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import (
     AXES,
@@ -492,6 +492,9 @@ def name_and_version(path: Path, data: dict, example: str) -> tuple[str, str]:
         raise _fail(
             path, "name", f"must be a USD identifier ([A-Za-z_][A-Za-z0-9_]*), got {name!r}"
         )
+    too_long = name_too_long(name, path.parent)  # the output is checked again (convert)
+    if too_long:
+        raise _fail(path, "name", too_long)
     version = data.get("version", "1.0")
     if not isinstance(version, str):
         raise _fail(path, "version", f"expected a string, got {version!r}")

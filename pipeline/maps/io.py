@@ -201,6 +201,6 @@ def area_reduce(values: np.ndarray, factor: int) -> np.ndarray:
         return values
     h, w = values.shape[:2]
     pad = ((0, (-h) % factor), (0, (-w) % factor)) + ((0, 0),) * (values.ndim - 2)
-    padded = np.pad(values, pad, mode="edge")
+    padded = np.pad(values, pad, mode="edge") if h % factor or w % factor else values
     blocks = (padded.shape[0] // factor, factor, padded.shape[1] // factor, factor)
     return padded.reshape(blocks + values.shape[2:]).mean(axis=(1, 3))

@@ -33,6 +33,7 @@ import numpy as np
 from pavonine.materials import materialx
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.errors import atomic_path
+from pavonine.pipeline.truncation import refuse_size_other_than
 from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR, MTLX_SHADER
 
 FEATHER_MATERIAL = "Feather"
@@ -207,7 +208,9 @@ def write_document(doc, folder: Path, name: str) -> Path:
     folder = Path(folder)
     with atomic_path(folder / NODEDEF_FILE) as tmp:
         shutil.copyfile(materialx.MTLX_PATH, tmp)
+        refuse_size_other_than(tmp, materialx.MTLX_PATH.stat().st_size, folder / NODEDEF_FILE)
     target = folder / f"{name}.mtlx"
     with atomic_path(target) as tmp:
-        mx.writeToXmlFile(doc, str(tmp))
+        mx.writeToXmlFile(doc, str(tmp))  # reports no short write: the size is checked
+        refuse_size_other_than(tmp, len(mx.writeToXmlString(doc).encode("utf-8")), target)
     return target

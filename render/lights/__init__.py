@@ -22,10 +22,12 @@ from pxr import Usd, UsdLux
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.lights import area, distant, dome, shaping
 from pavonine.render.lights.common import (
+    MAX_EMISSION,
     LightReader,
     audit,
     cone_has_no_effect,
     cone_solid_angle,
+    largest_emission,
 )
 from pavonine.render.lights.common import radiance as _radiance
 from pavonine.render.lights.distant import default_lights, distant_light
@@ -69,7 +71,16 @@ def is_dark(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
     """The light emits nothing Mitsuba can sample: its radiance is zero, negative or not finite
     (Mitsuba refuses such emitters: "no probability mass found")."""
     emitted = radiance(prim, time)
-    return not (np.all(np.isfinite(emitted)) and np.all(emitted >= 0) and np.any(emitted > 0))
+    finite = np.all(np.isfinite(emitted)) and np.max(np.abs(emitted)) <= MAX_EMISSION
+    return not (finite and np.all(emitted >= 0) and np.any(emitted > 0))
+
+
+def _overflow(largest: float) -> str:
+    return (
+        f"inputs:intensity × 2^inputs:exposure × inputs:color (with its normalisation and "
+        f"texture) emits {largest:.3g}, beyond the {MAX_EMISSION:.3g} Mitsuba's float32 spectra "
+        "hold (it would render black); skipped (it still counts as the stage's lighting)"
+    )
 
 
 def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics) -> np.ndarray:
@@ -101,6 +112,9 @@ def translate_light(
         return None
     if is_dark(prim, time):
         emitted = radiance(prim, time)
+        if np.all(np.isfinite(emitted)) and np.max(np.abs(emitted)) > MAX_EMISSION:
+            reader.warn(_overflow(float(np.max(np.abs(emitted)))))
+            return None
         reader.warn(
             f"inputs:intensity × 2^inputs:exposure × inputs:color = {emitted.tolist()}: the light "
             "emits nothing (zero, negative or not finite); skipped (it still counts as the "
@@ -124,4 +138,7 @@ def translate_light(
     else:
         entry = area.cylinder(reader, world_usd)
     audit(reader)
+    if not largest_emission(entry) <= MAX_EMISSION:
+        reader.warn(_overflow(largest_emission(entry)))
+        return None
     return entry

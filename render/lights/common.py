@@ -126,6 +126,28 @@ def radiance(reader: LightReader) -> np.ndarray:
     return intensity * 2.0**exposure * color
 
 
+#: The largest RGB emission Mitsuba's float32 spectra hold: an RGB emitter's spectrum is
+#: ``2 · max(rgb)`` times a D65-shaped curve (``RGBIlluminantSpectrum``) whose peak is 1.19
+#: times its mean, so a component above FLT_MAX / 2.38 = 1.43e38 evaluates to NaN at some
+#: wavelengths (measured with llvm_ad_spectral, 471 wavelengths 360–830 nm: 1.43e38 finite,
+#: 1.6e38 NaN at 500 nm) and the light renders black.
+MAX_EMISSION = float(np.finfo(np.float32).max) / 2.4
+
+
+def largest_emission(entry: Any) -> float:
+    """The largest emitted value in a Mitsuba emitter entry (its ``rgb`` values and bitmaps, in
+    the float32 Mitsuba receives); ``inf`` when one is NaN or infinite."""
+    if isinstance(entry, dict):
+        values = [largest_emission(v) for v in entry.values()]
+        if entry.get("type") == "rgb":
+            values.append(float(np.max(np.abs(np.asarray(entry["value"], np.float64)))))
+        return max(values, default=0.0)
+    if type(entry).__name__ == "Bitmap":
+        pixels = np.abs(np.asarray(entry, dtype=np.float32))
+        return float(np.max(pixels)) if np.all(np.isfinite(pixels)) else math.inf
+    return 0.0
+
+
 def audit(reader: LightReader) -> None:
     """Warn about every authored UsdLux property of the prim that no translator honoured."""
     definition = reader.prim.GetPrimDefinition()
@@ -256,4 +278,6 @@ def bitmap(values: np.ndarray, raw: bool = False) -> Any:
     """A float32 ``mi.Bitmap`` of H×W×C values."""
     import mitsuba as mi
 
-    return mi.Bitmap(np.ascontiguousarray(values, dtype=np.float32))
+    with np.errstate(over="ignore"):  # beyond float32: inf, warned by name (largest_emission)
+        pixels = np.ascontiguousarray(values, dtype=np.float32)
+    return mi.Bitmap(pixels)
