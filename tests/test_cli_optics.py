@@ -192,7 +192,10 @@ def test_figures_in_the_physical_mode(runner, tmp_path, monkeypatch):
         return original(path, params)
 
     monkeypatch.setattr(plots, "table1_swatches", spy)
-    monkeypatch.setattr(plots, "physical_comparison", lambda path: path.write_bytes(b"stub"))
+    # a whole one-pixel PNG: every image written is checked whole after the write
+    monkeypatch.setattr(
+        plots, "physical_comparison", lambda path: plots.plt.imsave(path, [[0.0]], cmap="gray")
+    )
     result = runner.invoke(cli, ["figures", "-o", str(tmp_path), "--interference", "physical"])
     assert result.exit_code == 0, result.output
     assert seen == ["physical"]

@@ -236,13 +236,13 @@ def test_commit_fallback_replaces_the_folder_and_leaves_nothing_hidden(tmp_path,
     (target / "sub").mkdir(parents=True)
     (target / "a.usd").write_text("old a")
     (target / "gone.usd").write_text("old only")
-    (target / "sub" / "b.png").write_text("old b")
+    (target / "sub" / "b.dat").write_text("old b")
     with commit.staged_folder(target, replace=True) as staging:
         (staging / "a.usd").write_text("new a")
         (staging / "sub").mkdir()
-        (staging / "sub" / "b.png").write_text("new b")
+        (staging / "sub" / "b.dat").write_text("new b")
     assert snapshot(target) == snapshot(
-        _tree(tmp_path / "ref", {"a.usd": "new a", "sub/b.png": "new b"})
+        _tree(tmp_path / "ref", {"a.usd": "new a", "sub/b.dat": "new b"})
     )
     assert hidden_entries(tmp_path) == []
 
@@ -383,16 +383,16 @@ def test_ctrl_c_in_the_middle_of_a_commit_rolls_it_forward(tmp_path, monkeypatch
 
     monkeypatch.setattr(commit, "checkpoint", interrupt)
     monkeypatch.setattr(commit, "exchange_supported", False)
-    old = _tree(tmp_path / "out", {"a.exr": "old", "a.png": "old", "b.txt": "old"})
+    old = _tree(tmp_path / "out", {"a.bin": "old", "a.dat": "old", "b.txt": "old"})
     with pytest.raises(KeyboardInterrupt):
         if step == "files.renaming":
-            temporaries = _tree(tmp_path / "new", {"a.exr": "new", "a.png": "new"})
-            commit.commit_files([(temporaries / n, old / n) for n in ("a.exr", "a.png")])
+            temporaries = _tree(tmp_path / "new", {"a.bin": "new", "a.dat": "new"})
+            commit.commit_files([(temporaries / n, old / n) for n in ("a.bin", "a.dat")])
         else:
             with commit.staged_folder(old, replace=True) as staging:
-                _tree(staging, {"a.exr": "new", "a.png": "new", "b.txt": "new"})
+                _tree(staging, {"a.bin": "new", "a.dat": "new", "b.txt": "new"})
     assert {p.name: p.read_text() for p in old.iterdir()} == {
-        "a.exr": "new", "a.png": "new", "b.txt": "new" if step == "folder.moving" else "old",
+        "a.bin": "new", "a.dat": "new", "b.txt": "new" if step == "folder.moving" else "old",
     }  # fmt: skip
     assert hidden_entries(tmp_path / "out") == [] and hidden_entries(tmp_path) == []
 

@@ -93,7 +93,14 @@ def convert_on_cluster(
             continue
         finish(
             i,
-            ConvertResult(path, asset.name, root, dict(asset.triangles), dict(asset.seconds)),
+            ConvertResult(
+                path,
+                asset.name,
+                root,
+                triangles=dict(asset.triangles),
+                barbs=asset.barbs,
+                seconds=dict(asset.seconds),
+            ),
         )
         future.release()
     return [results[i] for i in range(len(recipes))]

@@ -242,6 +242,7 @@ class ConvertedAsset:
     triangles: dict[str, int]
     seconds: dict[str, float]
     worker: str
+    barbs: int = 0  # barbs in the ``geometry = barbs`` variant (0: none written)
 
     @property
     def nbytes(self) -> int:
@@ -293,5 +294,11 @@ def convert_task(task: ConvertTask) -> ConvertedAsset:
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return ConvertedAsset(
-        task.recipe, result.name, files, result.triangles, result.seconds, worker_name()
+        task.recipe,
+        result.name,
+        files,
+        result.triangles,
+        result.seconds,
+        worker_name(),
+        barbs=result.barbs,
     )
