@@ -29,7 +29,9 @@ barbule axis. Glossy sampling then draws the block's shifted Beckmann slopes (al
 only the visible ones); at ``glitter`` 0 nothing of this runs and the BSDF is the smooth one.
 
 The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
-detail); :func:`feather_bsdf_dict` builds that nesting. Sampling: visible normals of the
+detail); :func:`~pavonine.render.feather_encoding.feather_bsdf_dict` builds that nesting
+(:mod:`pavonine.render.feather_encoding`: the plugin's properties and scene description; its
+public names are importable from here too). Sampling: visible normals of the
 structural lobe's anisotropic Beckmann distribution (``mi.MicrofacetDistribution``) with
 probability w, cosine-weighted hemisphere for the melanin part otherwise.
 """
@@ -38,12 +40,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
-
-import numpy as np
 
 from pavonine.backend import select_variant
-from pavonine.materials import barbule, glitter, ocellus
+from pavonine.materials import barbule, glitter
 from pavonine.materials.brdf import (
     UM_TO_NM,
     MaterialConstants,
@@ -51,166 +50,54 @@ from pavonine.materials.brdf import (
     reflectance_table,
     srgb_model_eval,
 )
-from pavonine.materials.dispersion import Dispersion
-from pavonine.materials.parameters import STACK_QUANTITIES, FeatherParameters
+from pavonine.materials.parameters import FeatherParameters
+from pavonine.render.feather_encoding import (
+    DATA_MAPS,
+    DISPERSIONS,
+    PLUGIN_NAME,
+    PRIMVAR_SLOTS,
+    WORLD_UNIT_UM,
+    _bitmap,
+    _class_bitmap,
+    decode_parameters,
+    encode_parameters,
+    feather_bsdf_dict,
+    load_with_feathers,
+)
 from pavonine.render.plugins import register_once
 
-PLUGIN_NAME = "pavonine_feather"
+__all__ = [
+    "BARB_TANGENT_ATTRIBUTE",
+    "DATA_MAPS",
+    "DISPERSIONS",
+    "FRAME_FLOATS",
+    "INSTANCE_FRAME",
+    "MAP_DEFAULTS",
+    "PLUGIN_NAME",
+    "PRIMVAR_SLOTS",
+    "QUANTITIES",
+    "SAMPLING_WAVELENGTH_NM",
+    "WORLD_UNIT_UM",
+    "JitMaterial",
+    "_bitmap",
+    "_class_bitmap",
+    "class_tables",
+    "decode_parameters",
+    "encode_parameters",
+    "feather_bsdf_dict",
+    "gather_stacks",
+    "load_with_feathers",
+    "register",
+]
+
 BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
 SAMPLING_WAVELENGTH_NM = 550.0
 QUANTITIES = ("interval", "radius", "count")
-DISPERSIONS = ("melanin", "keratin")
-DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
 MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
-PRIMVAR_SLOTS = {name: f"{name}_primvar" for name in DATA_MAPS}
 #: Per-instance frame table: world→instance 3×4 (row-major) then instance→world linear 3×3.
 INSTANCE_FRAME = "instance_frame"
 FRAME_FLOATS = 21
-#: Micrometres per scene unit unless told (Pavonine's assets: centimetres).
-WORLD_UNIT_UM = 1.0e4
 _IDENTITY_FRAME = (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0)
-
-
-def encode_parameters(params: FeatherParameters) -> dict:
-    """The plugin's scalar properties for a material (class tables as comma-separated strings)."""
-    arrays = params.class_arrays()
-    props: dict = {
-        key: ",".join(repr(float(v)) for v in value.ravel()) for key, value in arrays.items()
-    }
-    props.update(
-        {
-            f"{name}_dispersion": ",".join(
-                repr(float(v)) for v in vars(getattr(params, name)).values()
-            )
-            for name in DISPERSIONS
-        }
-    )
-    props.update(
-        lattice=params.lattice,
-        n_classes=len(params.classes),
-        melanin_index=params.melanin_index,
-        medium_index=params.medium_index,
-        crescent_sigma_deg=params.crescent_sigma_deg,
-        block_sigma_deg=params.block_sigma_deg,
-        rod_length_um=params.rod_length_um,
-        interference=params.interference,
-        melanin_color=",".join(repr(c) for c in params.melanin_color),
-        glitter=params.glitter,
-        glitter_seed=params.glitter_seed,
-        block_length_um=params.block_length_um,
-        barbule_width_um=params.barbule_width_um,
-    )
-    return props
-
-
-def decode_parameters(props) -> FeatherParameters:
-    """Inverse of :func:`encode_parameters` (from a ``mi.Properties`` or a dict)."""
-    n = int(props["n_classes"])
-    keys = [f"{axis}_{q}" for axis in ("long", "short") for q in STACK_QUANTITIES] + ["cortex"]
-    arrays = {
-        key: np.array([float(v) for v in str(props[key]).split(",")]).reshape(n, 2) for key in keys
-    }
-    dispersions = {
-        name: Dispersion(*(float(v) for v in str(props[f"{name}_dispersion"]).split(",")))
-        for name in DISPERSIONS
-    }
-    return FeatherParameters.from_class_arrays(
-        arrays,
-        lattice=str(props["lattice"]),
-        **dispersions,
-        melanin_index=float(props["melanin_index"]),
-        medium_index=float(props["medium_index"]),
-        crescent_sigma_deg=float(props["crescent_sigma_deg"]),
-        block_sigma_deg=float(props["block_sigma_deg"]),
-        rod_length_um=float(props["rod_length_um"]),
-        interference=str(props["interference"]),
-        melanin_color=tuple(float(c) for c in str(props["melanin_color"]).split(",")),
-        glitter=float(props.get("glitter", 0.0)),
-        glitter_seed=int(props.get("glitter_seed", 0)),
-        block_length_um=float(props.get("block_length_um", glitter.BLOCK_LENGTH_UM)),
-        barbule_width_um=float(props.get("barbule_width_um", glitter.BARBULE_WIDTH_UM)),
-    )
-
-
-def _bitmap(path: str) -> dict:
-    return {
-        "type": "bitmap",
-        "filename": str(path),
-        "raw": True,
-        "filter_type": "bilinear",
-        "wrap_mode": "clamp",
-    }
-
-
-def _class_bitmap(path: str) -> dict:
-    """The ocellar map as its smooth class field (:func:`ocellus.smooth_class_field`)."""
-    import mitsuba as mi
-
-    from pavonine.pipeline.maps.io import read_map
-
-    field = ocellus.smooth_class_field(read_map(path, "ocellar"))
-    return {
-        "type": "bitmap",
-        "data": mi.TensorXf(field[..., None]),
-        "raw": True,
-        "filter_type": "bilinear",
-        "wrap_mode": "clamp",
-    }
-
-
-def feather_bsdf_dict(
-    params: FeatherParameters,
-    maps: Mapping[str, str | None] | None = None,
-    *,
-    bump_scale: float = 0.002,
-    barb_tangents: bool = False,
-    world_unit_um: float = WORLD_UNIT_UM,
-) -> dict:
-    """A ``mi.load_dict`` description of the feather material with its maps (missing = uniform).
-
-    ``barb_tangents``: read the barb direction from the mesh attribute ``vertex_barb_tangent``
-    (every mesh using the material must carry it); otherwise the barb runs along ``dp/du``.
-    ``world_unit_um``: micrometres per scene unit (the blocks of ``glitter`` are sized in µm).
-    """
-    maps = dict(maps or {})
-    bsdf: dict = {"type": PLUGIN_NAME, **encode_parameters(params.validate())}
-    bsdf["barb_tangents"] = barb_tangents
-    bsdf["world_unit_um"] = float(world_unit_um)
-    for name in DATA_MAPS:
-        if maps.get(name):
-            bsdf[name] = _class_bitmap(maps[name]) if name == "ocellar" else _bitmap(maps[name])
-    if maps.get("displacement"):
-        bsdf = {
-            "type": "bumpmap",
-            "arbitrary": _bitmap(maps["displacement"]),
-            "scale": bump_scale,
-            "bsdf": bsdf,
-        }
-    if maps.get("alpha"):
-        bsdf = {"type": "mask", "opacity": _bitmap(maps["alpha"]), "bsdf": bsdf}
-    return bsdf
-
-
-def load_with_feathers(bsdf: dict) -> tuple[object, list]:
-    """``mi.load_dict(bsdf)``, and the ``pavonine_feather`` objects inside its wrappers.
-
-    The feather nodes are loaded first and nested as objects, so the caller keeps a handle on
-    them (per-instance primvar tables are bound after the scene is built).
-    """
-    import mitsuba as mi
-
-    feathers: list = []
-
-    def load(node):
-        if isinstance(node, dict) and node.get("type") == PLUGIN_NAME:
-            feathers.append(mi.load_dict(node))
-            return feathers[-1]
-        if isinstance(node, dict):
-            return {k: load(v) for k, v in node.items()}
-        return node
-
-    loaded = load(bsdf)
-    return (loaded if not isinstance(loaded, dict) else mi.load_dict(loaded)), feathers
 
 
 def class_tables(params: FeatherParameters, ops) -> dict:
