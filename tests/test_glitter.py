@@ -25,16 +25,10 @@ FREYER = preset("freyer2020")
 
 
 def _plugin_dict(params, ocellar_class=3, gradation=0.5, angle=0.2, share=0.7):
-    d = feather_bsdf_dict(params)
-    grey = 1.0 - ocellar_class / (len(params.classes) - 1)
-    for name, value in (
-        ("ocellar", grey),
-        ("gradation", gradation),
-        ("angle", angle),
-        ("melanin", share),
-    ):
-        d[name] = {"type": "uniform", "value": value}
-    return d
+    """test_feather_bsdf's BSDF dict with uniform inputs, at this file's defaults."""
+    from test_feather_bsdf import _plugin_dict as uniform_inputs
+
+    return uniform_inputs(ocellar_class, gradation, angle, share, params=params)
 
 
 def _sheet(wi, wavelengths, uv, unit_um=1.0e4):
