@@ -1,10 +1,17 @@
 """What native libraries print straight to the process's file descriptors (USD's ``TF_WARN``,
 pymeshlab's plugin loader), kept off the command's own output.
 
-A file descriptor belongs to the whole process: two threads that each saved and moved descriptor
-2 would restore each other's copy (the second saves the first one's ``/dev/null``, and stderr
-stays there for good: a command's error line vanished when convert read and wrote maps on
-threads). So one block at a time moves descriptors, whichever thread it is in (:data:`_MOVING`).
+A file descriptor belongs to the whole process, and blocks on different threads overlap (convert
+reads and writes maps on threads; USD's validators run on TBB workers inside a silenced block and
+capture libpng's lines there). So each descriptor keeps one stack of the targets of the blocks now
+open (:class:`_Redirect`): the first block saves the original, the newest open block's target is
+where the descriptor points, and the original comes back when the last block closes, whichever
+order they close in. The lock guards only the moves, never a block's body: a block on one thread
+never waits for a block on another (holding it across the body deadlocked validate).
+
+Where blocks overlap, what a thread writes goes to the newest block's target: descriptors cannot
+tell threads apart, so an older capture misses those lines (they are not lost to the terminal
+for good: the original descriptor always comes back).
 """
 
 from __future__ import annotations
@@ -16,33 +23,74 @@ import tempfile
 import threading
 from collections.abc import Iterator
 
-#: Held while a block has moved descriptors (re-entrant: a block may nest in another's thread).
-_MOVING = threading.RLock()
+#: Guards the descriptor moves and every :class:`_Redirect`; never held while a block runs.
+_LOCK = threading.Lock()
+
+
+class _Redirect:
+    """The open blocks of one descriptor: the saved original and the targets, oldest first."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.original: int | None = None
+        self.targets: list[tuple[object, int]] = []  # (block's token, target descriptor)
+
+    def push(self, token: object, target: int) -> None:
+        """Point the descriptor at ``target`` for the block ``token`` (saving the original first).
+        Raises :class:`OSError` when the descriptor cannot be duplicated."""
+        if not self.targets:
+            self.original = os.dup(self.fd)
+        os.dup2(target, self.fd)
+        self.targets.append((token, target))
+
+    def pop(self, token: object) -> None:
+        """Close the block ``token``: the descriptor goes back to the newest block still open, or
+        to the original when none is."""
+        self.targets = [entry for entry in self.targets if entry[0] is not token]
+        if self.targets:
+            os.dup2(self.targets[-1][1], self.fd)
+        elif self.original is not None:
+            os.dup2(self.original, self.fd)
+            os.close(self.original)
+            self.original = None
+
+
+_REDIRECTS: dict[int, _Redirect] = {}
+
+
+@contextlib.contextmanager
+def _redirected(fds: tuple[int, ...], target: int) -> Iterator[bool]:
+    """Descriptors ``fds`` point at ``target`` inside the block; yields whether they moved (not
+    where a descriptor cannot be duplicated: no stdout or stderr at all)."""
+    token = object()
+    moved: list[_Redirect] = []
+    with _LOCK:
+        _flush_python_streams()
+        try:
+            for fd in fds:
+                redirect = _REDIRECTS.setdefault(fd, _Redirect(fd))
+                redirect.push(token, target)
+                moved.append(redirect)
+        except OSError:
+            for redirect in moved:
+                redirect.pop(token)
+            moved = []
+    try:
+        yield bool(moved)
+    finally:
+        with _LOCK:
+            _flush_python_streams()
+            for redirect in moved:
+                redirect.pop(token)
 
 
 @contextlib.contextmanager
 def silenced(*fds: int) -> Iterator[None]:
     """File descriptors ``fds`` (default 1 and 2) go to ``/dev/null`` inside the block and come
     back after it. Python's own streams are flushed first, so nothing written before the block is
-    lost. Where a descriptor cannot be duplicated (no stdout or stderr at all) the block runs
-    as it is."""
-    fds = fds or (1, 2)
-    with _MOVING:
-        _flush_python_streams()
-        try:
-            saved = [os.dup(fd) for fd in fds]
-        except OSError:  # nothing to keep clean
-            yield
-            return
-        try:
-            with open(os.devnull, "wb") as null:
-                for fd in fds:
-                    os.dup2(null.fileno(), fd)
-                yield
-        finally:
-            for fd, copy in zip(fds, saved, strict=True):
-                os.dup2(copy, fd)
-                os.close(copy)
+    lost. Where a descriptor cannot be duplicated the block runs as it is."""
+    with open(os.devnull, "wb") as null, _redirected(fds or (1, 2), null.fileno()):
+        yield
 
 
 @contextlib.contextmanager
@@ -52,23 +100,14 @@ def captured(fd: int = 2) -> Iterator[list[str]]:
     also when it raises. Python's streams are flushed first; where ``fd`` cannot be duplicated
     nothing is captured."""
     lines: list[str] = []
-    with _MOVING:
-        _flush_python_streams()
+    with tempfile.TemporaryFile() as sink:
         try:
-            saved = os.dup(fd)
-        except OSError:
-            yield lines
-            return
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), fd)
-            try:
+            with _redirected((fd,), sink.fileno()):
                 yield lines
-            finally:
-                os.dup2(saved, fd)
-                os.close(saved)
-                sink.seek(0)
-                text = sink.read().decode("utf-8", errors="replace")
-                lines.extend(line for line in text.splitlines() if line.strip())
+        finally:
+            sink.seek(0)
+            text = sink.read().decode("utf-8", errors="replace")
+            lines.extend(line for line in text.splitlines() if line.strip())
 
 
 def _flush_python_streams() -> None:
