@@ -131,6 +131,24 @@ def pavonine(*args: str, **kwargs) -> subprocess.CompletedProcess:
     )
 
 
+def stat_compare(folder: Path, test: str, ref: str) -> subprocess.CompletedProcess:
+    """``pavonine compare --method stat`` of ``folder/test.exr`` against ``folder/ref.exr``, each
+    with the variance image the render wrote beside it."""
+    return pavonine(
+        "compare",
+        str(folder / f"{test}.exr"),
+        str(folder / f"{ref}.exr"),
+        "--test-variance",
+        str(folder / f"{test}.variance.exr"),
+        "--ref-variance",
+        str(folder / f"{ref}.variance.exr"),
+        "--method",
+        "stat",
+        "-o",
+        str(folder / f"heat-{test}"),
+    )
+
+
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory) -> list[np.ndarray]:
     """The turntable rendered without a cluster (the frames a cluster must reproduce)."""
@@ -252,22 +270,7 @@ def test_a_frame_split_by_samples_passes_stat_against_one_render(shared_dask, tm
     )
     assert single.returncode == 0, single.stderr
 
-    def compare(test: str, ref: str) -> subprocess.CompletedProcess:
-        return pavonine(
-            "compare",
-            str(tmp_path / f"{test}.exr"),
-            str(tmp_path / f"{ref}.exr"),
-            "--test-variance",
-            str(tmp_path / f"{test}.variance.exr"),
-            "--ref-variance",
-            str(tmp_path / f"{ref}.variance.exr"),
-            "--method",
-            "stat",
-            "-o",
-            str(tmp_path / "heat"),
-        )
-
-    agree = compare("split", "one")
+    agree = stat_compare(tmp_path, "split", "one")
     assert agree.returncode == 0, agree.stdout + agree.stderr
     # the test can fail: the same frame with 2 % brighter pixels is told apart
     pixels, _header = read_exr(tmp_path / "one.exr")
@@ -277,7 +280,7 @@ def test_a_frame_split_by_samples_passes_stat_against_one_render(shared_dask, tm
     write_exr(
         tmp_path / "brighter.variance.exr", read_exr(tmp_path / "one.variance.exr")[0] * 1.02**2
     )
-    assert compare("split", "brighter").returncode == 1
+    assert stat_compare(tmp_path, "split", "brighter").returncode == 1
 
 
 def test_convert_on_the_cluster(shared_dask, tmp_path):
@@ -376,22 +379,7 @@ def test_glints_are_the_same_in_one_process_on_workers_and_split_by_samples(shar
         done = pavonine("render", str(stage), "-o", str(tmp_path / f"{name}.exr"), *common, *extra)
         assert done.returncode == 0, (name, done.stderr)
 
-    def compare(test: str, ref: str) -> subprocess.CompletedProcess:
-        return pavonine(
-            "compare",
-            str(tmp_path / f"{test}.exr"),
-            str(tmp_path / f"{ref}.exr"),
-            "--test-variance",
-            str(tmp_path / f"{test}.variance.exr"),
-            "--ref-variance",
-            str(tmp_path / f"{ref}.variance.exr"),
-            "--method",
-            "stat",
-            "-o",
-            str(tmp_path / f"heat-{test}"),
-        )
-
     for name in ("cluster", "split2", "split4"):
-        agree = compare(name, "one")
+        agree = stat_compare(tmp_path, name, "one")
         assert agree.returncode == 0, (name, agree.stdout + agree.stderr)
-    assert compare("reseeded", "one").returncode == 1
+    assert stat_compare(tmp_path, "reseeded", "one").returncode == 1
