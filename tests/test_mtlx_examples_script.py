@@ -74,7 +74,10 @@ def test_translation_reaches_the_renderer_and_the_inputs_check_can_fail(
     assert Path(file.Get().resolvedPath) == tmp_path / "textures" / "red.png"
     diag = Diagnostics()
     material = UsdShade.Material(stage.GetPrimAtPath("/Looks/Tiles"))
-    spec = translate_material(material, Usd.TimeCode.Default(), diag)
+    from pavonine.render.diagnostics import StageWarning
+
+    with pytest.warns(StageWarning, match="subsurface is not translated"):
+        spec = translate_material(material, Usd.TimeCode.Default(), diag)
     base = spec.bsdf["base_color"]
     assert base["type"] == "bitmap" and "to_uv" in base  # the graph's interface tiling
     assert np.array(base["to_uv"].matrix)[0, 0] == pytest.approx(2.0)

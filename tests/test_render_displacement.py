@@ -133,11 +133,14 @@ def test_beyond_the_ceiling_the_bump_map_is_the_fallback(tmp_path, monkeypatch):
 def test_preview_displacement_without_a_terminal_is_warned(tmp_path):
     stage = new_stage(tmp_path / "no_terminal.usda")
     material, _ = preview(stage, displacement=0.2)
-    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.render.diagnostics import Diagnostics, StageWarning
     from pavonine.render.shading import translate_material
 
     diag = Diagnostics()
-    spec = translate_material(UsdShade.Material(material.GetPrim()), stage.GetStartTimeCode(), diag)
+    with pytest.warns(StageWarning, match="no displacement output of the material connects"):
+        spec = translate_material(
+            UsdShade.Material(material.GetPrim()), stage.GetStartTimeCode(), diag
+        )
     assert spec.displacement is None
     assert any("no displacement output of the material connects" in w for w in diag.messages)
 
@@ -180,6 +183,9 @@ def test_materialx_displacementshader_and_hdmitsuba_terminal_displace(tmp_path):
     assert displacement.heights(spec.displacement, uv, np.array([[0, 1, 2]])) == pytest.approx(
         [0.5] * 3  # white texel 1 − ½ (hdmitsuba's centring)
     )
-    spec, messages = translated(*terminal_material(tmp_path, "mtlx", "ND_displacement_vector3"))
+    from pavonine.render.diagnostics import StageWarning
+
+    with pytest.warns(StageWarning, match="ND_displacement_vector3"):
+        spec, messages = translated(*terminal_material(tmp_path, "mtlx", "ND_displacement_vector3"))
     assert spec.displacement is None
     assert any("ND_displacement_vector3" in m and "not supported" in m for m in messages)
