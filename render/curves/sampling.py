@@ -159,7 +159,7 @@ def conditioned_triangles(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
     ``|e₁|²|e₂|² − (e₁·e₂)²`` = ``|e₁|²|e₂|² sin²θ``, θ the angle there), in float32. Where a
     ribbon tapers (a barb's tip, a gap in the vane), a triangle is a needle: from its sharp corner
     the two long edges are nearly parallel and that determinant rounds to 0, so the attribute is
-    NaN (the eye's barbs: 165 of 26,814 triangles; a NaN class made the feather BSDF gather 8 GiB
+    NaN (the eye's barbs: 18 of 26,814 triangles; a NaN class made the feather BSDF gather 8 GiB
     past its table, SIGSEGV). From the widest corner (θ ≥ 60°) the determinant keeps its digits
     for every shape but a flat one (three points nearly on a line: next to no area to be hit)."""
     triangles = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], axis=1).reshape(-1, 3)
