@@ -93,8 +93,13 @@ class DrJitOps:
         return self.Buffer(np.asarray(values, dtype=np.float32).ravel())
 
     def gather(self, table, index):
+        """``table[index]``, the index clamped to the table: a NaN index (NaN inputs) reads entry
+        0 instead of converting to 0x80000000 and reading 8 GiB past the table (SIGSEGV)."""
         if self.Buffer is self.Float:
-            return self.dr.gather(self.Float, table, self.UInt32(index))
+            dr = self.dr
+            last = dr.width(table) - 1.0
+            safe = dr.select(index >= 0.0, dr.minimum(index, last), 0.0)  # False for NaN
+            return dr.gather(self.Float, table, self.UInt32(safe))
         return table[int(index)]  # scalar variant: one lane, plain indexing
 
 

@@ -303,6 +303,9 @@ def _plugin_class(variant: str):
                     value = mi.Float(primvar)
                 else:
                     value = primvar.eval_1(self._instance_local(si, active)[0], active)
+                    # NaN where Mitsuba's barycentric solve fails (a needle triangle): neutral,
+                    # never a NaN class or table index (see curves.sampling.conditioned_triangles)
+                    value = dr.select(dr.isfinite(value), value, self._neutral_value(name))
                 if name == "ocellar":  # class index → grey (class k at 1 − k/(n − 1))
                     return 1.0 - value / max(self.n_classes - 1, 1)
                 if name == "angle":  # degrees → grey (the axis is a line: 180° periodic)
@@ -312,6 +315,14 @@ def _plugin_class(variant: str):
             if texture is None:
                 return mi.Float(MAP_DEFAULTS[name])
             return texture.eval_1(si, active)
+
+        def _neutral_value(self, name: str) -> float:
+            """The primvar value of the map's neutral grey (class index, gradation, share,
+            degrees)."""
+            grey = MAP_DEFAULTS[name]
+            if name == "ocellar":
+                return (1.0 - grey) * max(self.n_classes - 1, 1)
+            return grey * 180.0 if name == "angle" else grey
 
         def _point(self, si, active):
             """Barbule-frame rotation (cos, sin), the two stacks and the structural share at ``si``."""

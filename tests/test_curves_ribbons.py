@@ -143,7 +143,7 @@ def test_primvars_reach_the_samples_with_their_interpolation():
     assert surface.primvars["pavonine_gradation"].values[:, 0] == pytest.approx(points[:, 0])
     ids = surface.primvars["pavonine_barbId"]
     assert ids.interpolation == "uniform" and len(ids.values) == surface.topology.face_count
-    upper = points[surface.topology.face_vertex_indices[::4], 1] > 1.0  # each quad's curve
+    upper = points[surface.topology.face_vertex_indices[::3], 1] > 1.0  # each triangle's curve
     assert np.all(ids.values[:, 0] == np.where(upper, 9, 7))
     melanin = surface.primvars["pavonine_melanin"].values[::2, 0].reshape(2, 3, 3)
     assert melanin[0] == pytest.approx(np.array([[0, 0.5, 1], [1, 1.5, 2], [2, 2.5, 3]]))
@@ -233,3 +233,34 @@ def test_widths_overshooting_below_zero_in_the_basis_are_clamped():
     across = edges(surface)[:, 1] - edges(surface)[:, 0]
     assert messages == [] and np.all(across[:, 1] <= 0)  # S = T × N = −Y: no edge crosses over
     assert across[:, 1].max() == 0.0
+
+
+def mitsuba_determinants(surface) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle: the determinant Mitsuba's barycentric solve divides by (edges from the
+    FIRST vertex, float32, Mesh::barycentric_coordinates) and the triangle's area (float64)."""
+    t = surface.topology
+    corners = t.points[t.face_vertex_indices[t.triangles]]
+    p = corners.astype(np.float32)
+    du, dv = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    a, b, c = (du * du).sum(1), (du * dv).sum(1), (dv * dv).sum(1)
+    area = np.linalg.norm(
+        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
+    )
+    return a * c - b * b, area / 2
+
+
+@pytest.mark.parametrize("tip", [1e-4, 1e-6])
+def test_a_tapering_ribbon_has_no_triangle_mitsuba_cannot_interpolate_on(tip):
+    """Regression (issue 23, the SIGSEGV at the hero view): a ribbon tapering from 0.4 to ``tip``
+    has needle triangles; each starts at its widest corner, so Mitsuba's float32 determinant of
+    every triangle with area is positive (from the needle's sharp corner it is exactly 0 and the
+    primvars read NaN), and the winding still faces the normal."""
+    curves = ribbon([(0, 0, 0), (2, 0, 0), (4, 0, 0)], [(0, 0, 1)] * 3, kind="linear")
+    curves.CreateWidthsAttr([0.4, 0.0, tip])
+    curves.SetWidthsInterpolation("vertex")
+    surface, messages = tessellate(curves)
+    det, area = mitsuba_determinants(surface)
+    assert messages == []
+    assert np.all(det[area > 0] > 0)
+    assert area.max() > 0 and (area == 0).any()  # the root's zero-width end: no area to hit
+    assert np.all(face_normals(surface)[area > 0][:, 2] > 0.999)

@@ -330,3 +330,17 @@ def test_a_colour_map_is_read_as_its_rec709_luma_as_convert_reads_it(tmp_path):
     luma = float(grey_values(rgb.ravel(), oiio.ImageSpec(4, 4, 3, "float"))[0, 0])
     assert value == pytest.approx(luma, abs=2e-4)
     assert abs(value - 0.9) > 0.3  # not the first channel
+
+
+def test_table_gathers_stay_inside_the_table_for_nan_and_out_of_range_indices():
+    """Regression (issue 23): a NaN table index converted to 0x80000000 and the gather read 8 GiB
+    past the table (SIGSEGV in the JIT kernel); now NaN and negatives read entry 0 and indices
+    past the end the last entry, in range ones their own."""
+    from pavonine.materials.arraymath import DrJitOps
+
+    ops = DrJitOps()
+    table = ops.buffer([10.0, 11.0, 12.0])
+    index = mi.Float([float("nan"), -3.0, 1.0, 2.0, 7.0, 2.0**31])
+    values = ops.gather(table, index)
+    dr.eval(values)
+    assert np.asarray(values).tolist() == [10.0, 10.0, 11.0, 12.0, 12.0, 12.0]

@@ -306,3 +306,56 @@ def test_feather_primvars_are_read_on_an_instance_own_mesh(tmp_path):
     for a, b, c in zip(along, instanced, native, strict=True):
         # broken (world hit point on the prototype): ΔE00 9 to 15
         assert de(a, b) < 1.5 and de(a, c) < 1.5
+
+
+#: A barb ribbon that tapers to nothing at its root: width 0 at (0, 0), NEEDLE at (2, 0). Its
+#: one triangle with area, (root, +edge, −edge), is a needle: its two long edges differ by
+#: 1e-4, so in float32 |e1|²|e2|² − (e1·e2)² is exactly 0, and Mitsuba's barycentric solve for
+#: mesh attributes (Mesh::barycentric_coordinates, from the hit point) divides by it.
+NEEDLE = 1e-4
+NEEDLE_STAGE = """
+import sys
+import numpy as np
+from pavonine.render.api import render_stage
+result = render_stage(sys.argv[1], spp=4, resolution=(16, 16), progress=False)
+lit = result.rgb.max(axis=2) > 0.01
+print(f"{lit.mean():.3f}")
+"""
+
+
+def test_a_ribbon_tapering_to_a_needle_renders_its_primvars_without_crashing(tmp_path):
+    """Regression (issue 23): the eye's barbs at the hero view, 512×768 @ 64 spp, died of SIGSEGV.
+    Lanes hitting a needle triangle of a tapering barb read NaN primvars, the feather BSDF's
+    stack-table index became NaN → 0x80000000 and its gather read 8 GiB past the table. Here the
+    camera sees only the needle's wide end (frame 2.5·NEEDLE), so most lanes hit it; run in a
+    child process, so a crash fails the test instead of ending pytest."""
+    import subprocess
+    import sys
+
+    from pxr import Gf
+
+    stage, material = feather_scene(tmp_path / "needle.usda", tmp_path)
+    curves = barb(stage, material, "/Needle", 0.0, 0.0, length=2.0)
+    curves.CreateTypeAttr("linear")
+    curves.CreateCurveVertexCountsAttr([2])
+    curves.CreatePointsAttr([(0, 0, 0), (2, 0, 0)])
+    curves.CreateNormalsAttr([(0, 0, 1)] * 2)
+    curves.CreateWidthsAttr([0.0, NEEDLE])
+    for name in ("ocellarClass", "gradation", "melanin", "barbuleAngle"):
+        primvar = curves.GetPrim().GetAttribute(f"primvars:pavonine_{name}")
+        primvar.Set(primvar.Get()[:2])
+    from pxr import UsdGeom
+
+    cam = UsdGeom.Camera(stage.GetPrimAtPath("/Cam"))
+    cam.GetHorizontalApertureAttr().Set(25 * NEEDLE)
+    cam.GetVerticalApertureAttr().Set(25 * NEEDLE)
+    UsdGeom.Xformable(cam).GetOrderedXformOps()[0].Set(Gf.Vec3d(2 - NEEDLE, 0, 10))
+    stage.Save()
+    done = subprocess.run(
+        [sys.executable, "-c", NEEDLE_STAGE, stage.GetRootLayer().realPath],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert float(done.stdout.split()[-1]) > 0.2  # the needle fills its share of the frame: lit

@@ -28,8 +28,8 @@ barb spacing): the ribbons cover the share ``c`` of the area, as the sheet's opa
 the background shows between them (they are never cut at a threshold).
 
 **Samples.** At every vertex: the feather coordinate (``pavonine_featherUV``, as on the sheet),
-the barb tangent, the ocellar class (nearest texel), gradation, melanin and barbule angle
-(bilinear), and the barb's id (uniform).
+the barb tangent, the ocellar class (of the smooth class field, as on the sheet), gradation,
+melanin and barbule angle (bilinear), and the barb's id (uniform).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from pavonine.materials.ocellus import smooth_class_field
 from pavonine.pipeline.convert.barbs import sample_direction
 from pavonine.pipeline.convert.rachis import RachisSpec, rachis_radius
 from pavonine.pipeline.convert.recipe import BarbOptions
@@ -309,7 +310,9 @@ def build_barbs(
     path, counts, rachis_barb = path[kept], counts[kept], rachis_barb[kept]
     order = np.arange(path.shape[1])[None, :] < counts[:, None]
     xy = path[order]
-    xy, counts, klass = split_at_classes(xy, counts, maps["ocellar"], frame.aspect)
+    xy, counts, klass = split_at_classes(
+        xy, counts, smooth_class_field(maps["ocellar"]), frame.aspect
+    )
     barb = np.repeat(np.arange(len(counts)), counts)
     tangent2 = polyline_tangents(xy, counts)
     uv = np.clip(_to_uv(xy, frame.aspect), 0.0, 1.0)
@@ -350,9 +353,12 @@ def split_at_classes(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Barb vertices with a pair straddling every ring boundary, and each vertex's class.
 
-    A vertex's class is that of the ocellar map's bilinear grey (rounded to the nearest class
-    level), so ring boundaries are the map's smooth mid-level contours, not its texel edges
-    (where the map jumps two classes, the class between shows in a band half a texel wide).
+    ``ocellar`` is the renderer's smooth class field (:func:`pavonine.materials.ocellus.
+    smooth_class_field`: the map's grey under a Gaussian of 3 texels; the bilinear grey of the
+    map itself rounds to a contour that still steps with the texels, 2.1 px from a smooth curve
+    in a 4 cm close-up at 512 px). A vertex's class is that field's bilinear grey rounded to the
+    nearest class level, so ring boundaries are the field's mid-level contours, the sheet's own
+    (where the map jumps two classes, the class between shows in a thin band).
     Where two neighbouring vertices of a barb differ, the boundary is found on the segment by
     bisection (the grey crossing the mean of their two levels) and two vertices of their two
     classes are inserted :data:`BOUNDARY_GAP` of a segment either side of it: a renderer

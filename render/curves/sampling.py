@@ -130,13 +130,15 @@ def strip_surface(
     diag: Diagnostics,
 ) -> Surface | None:
     """The mesh built on ``samples``: ``points`` (the same number per sample, in sample order)
-    joined by ``quads`` (the same number per strip piece, in piece order), vertex ``normals``,
-    the primvars carried (:func:`carried_primvars`); shaded on both sides (ribbons have no
-    inside, tube meshes open ends)."""
+    joined by ``quads`` (the same number per strip piece, in piece order; each becomes two
+    triangles, :func:`conditioned_triangles`), vertex ``normals``, the primvars carried
+    (:func:`carried_primvars`); shaded on both sides (ribbons have no inside, tube meshes open
+    ends)."""
     per_sample = len(points) // len(samples.tangents)
-    per_pair = len(quads) // len(samples.pairs)
-    counts = np.full(len(quads), 4, dtype=np.int64)
-    topology = make_topology(points, counts, quads.ravel(), False, str(prim.GetPath()), diag)
+    triangles = conditioned_triangles(points, quads)
+    per_pair = len(triangles) // len(samples.pairs)
+    counts = np.full(len(triangles), 3, dtype=np.int64)
+    topology = make_topology(points, counts, triangles.ravel(), False, str(prim.GetPath()), diag)
     if topology is None:
         return None
     return Surface(
@@ -146,6 +148,29 @@ def strip_surface(
         primvars=carried_primvars(samples, per_sample, per_pair),
         double_sided=True,
     )
+
+
+def conditioned_triangles(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Each quad ``(a, b, c, d)`` as the triangles ``(a, b, c)`` and ``(a, c, d)``, each turned
+    (its winding kept) to start at its widest corner.
+
+    Mitsuba reads a mesh attribute at a hit from the hit point (``Mesh::barycentric_coordinates``:
+    least squares on the edges ``e₁, e₂`` from the triangle's FIRST vertex, divided by
+    ``|e₁|²|e₂|² − (e₁·e₂)²`` = ``|e₁|²|e₂|² sin²θ``, θ the angle there), in float32. Where a
+    ribbon tapers (a barb's tip, a gap in the vane), a triangle is a needle: from its sharp corner
+    the two long edges are nearly parallel and that determinant rounds to 0, so the attribute is
+    NaN (the eye's barbs: 18 of 26,814 triangles; a NaN class made the feather BSDF gather 8 GiB
+    past its table, SIGSEGV). From the widest corner (θ ≥ 60°) the determinant keeps its digits
+    for every shape but a flat one (three points nearly on a line: next to no area to be hit)."""
+    triangles = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], axis=1).reshape(-1, 3)
+    corners = points[triangles]
+    after = np.roll(corners, -1, axis=1) - corners
+    before = np.roll(corners, 1, axis=1) - corners
+    lengths = np.linalg.norm(after, axis=2) * np.linalg.norm(before, axis=2)
+    cosine = np.sum(after * before, axis=2) / np.maximum(lengths, 1e-300)
+    first = np.argmin(np.where(lengths > 0.0, cosine, 2.0), axis=1)
+    turn = (first[:, None] + np.arange(3)[None, :]) % 3
+    return np.take_along_axis(triangles, turn, axis=1)
 
 
 def _widths(
