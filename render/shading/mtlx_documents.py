@@ -46,9 +46,10 @@ def translate(doc, stage: Usd.Stage, material_name: str, root: str = "/Looks") -
             resolved = inp.getResolvedValueString()
             folder = Path(inp.getDocument().getSourceUri() or ".").parent
             path = resolved if Path(resolved).is_absolute() else str(folder / resolved)
-            raw = folder / inp.getValueString()
-            if not os.path.exists(path) and raw.is_file():  # a prefix already in the name
-                path = str(raw)  # (``fileprefix="./textures/"``, ``./textures/a.jpg``): usdMtlx's
+            prefix = os.path.normpath(inp.getActiveFilePrefix() or ".")
+            name = os.path.normpath(inp.getValueString())
+            if prefix != "." and name.startswith(prefix + os.sep):  # the name holds the prefix:
+                path = str(folder / name)  # once, as usdMtlx read usd-wg's MaterialXTest
             usd_input.Set(Sdf.AssetPath(path))
         else:
             usd_input.Set(_usd_value(inp))
