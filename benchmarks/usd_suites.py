@@ -384,7 +384,7 @@ def checks(metrics: dict) -> dict[str, bool | None]:
 def run_one(stage: Path, out: Path, args) -> dict:
     """Run the worker for one stage in a fresh process; its metrics plus status and stderr tail."""
     report = out / "metrics.json"
-    if args.resume and report.is_file():  # measured by an earlier, interrupted run
+    if getattr(args, "resume", False) and report.is_file():  # measured by an earlier run
         metrics = json.loads(report.read_text())
         metrics.setdefault("status", "ok")
         return metrics
