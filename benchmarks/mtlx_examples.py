@@ -10,8 +10,9 @@ Usage::
 (textures from ``resources/Images``), never copied into this repository.
 
 usd-core has no usdMtlx, so each ``surfacematerial`` of each document is translated into UsdShade
-here with the ``MaterialX`` Python package, as usdMtlx does: one ``Shader`` per node with
-``info:id`` = its node definition (``ND_standard_surface_surfaceshader``, ``ND_tiledimage_color3``,
+by the renderer's own reader of referenced ``.mtlx`` documents
+(:mod:`pavonine.render.shading.mtlx_documents`), with the ``MaterialX`` Python package, as
+usdMtlx does: one ``Shader`` per node with ``info:id`` = its node definition (``ND_standard_surface_surfaceshader``, ``ND_tiledimage_color3``,
 ...), one ``NodeGraph`` per node graph (its outputs and interface inputs), file names resolved
 through the document's ``fileprefix``, colour spaces kept on the file inputs, and the surface on
 ``outputs:mtlx:surface`` (a displacement on ``outputs:mtlx:displacement``). The material is bound to
@@ -46,109 +47,11 @@ FOLDERS = ("resources/Materials/Examples/StandardSurface", "resources/Materials/
 
 
 def translate(doc, stage, material_name: str, root: str = "/Looks"):
-    """The UsdShade Material for ``doc``'s ``surfacematerial`` ``material_name`` (see module doc)."""
-    from pxr import Sdf, UsdShade
+    """The UsdShade Material for ``doc``'s ``surfacematerial`` ``material_name``: the renderer's
+    own usdMtlx-like translation (:func:`pavonine.render.shading.mtlx_documents.translate`)."""
+    from pavonine.render.shading.mtlx_documents import translate as usd_mtlx
 
-    from pavonine.pipeline.shading.usd import SDF_TYPES, _usd_value
-
-    material = UsdShade.Material.Define(stage, f"{root}/{_prim_name(material_name)}")
-    outputs: dict[tuple[str, str, str], UsdShade.Output] = {}
-    graphs: dict[str, UsdShade.NodeGraph] = {}
-
-    def graph_prim(graph) -> UsdShade.NodeGraph:
-        name = graph.getName()
-        if name not in graphs:
-            graphs[name] = UsdShade.NodeGraph.Define(
-                stage, material.GetPath().AppendChild(_prim_name(name))
-            )
-        return graphs[name]
-
-    def set_value(usd_input, inp) -> None:
-        if inp.getType() == "filename":
-            resolved = inp.getResolvedValueString()
-            folder = Path(inp.getDocument().getSourceUri() or ".").parent
-            path = resolved if Path(resolved).is_absolute() else str(folder / resolved)
-            usd_input.Set(Sdf.AssetPath(path))
-        else:
-            usd_input.Set(_usd_value(inp))
-        space = inp.getActiveColorSpace()
-        if space and inp.getType() == "filename":
-            usd_input.GetAttr().SetColorSpace(space)
-
-    def feed(usd_input, inp, scope, graph) -> None:
-        """Connect or set ``usd_input`` as the MaterialX input ``inp`` (inside ``graph``) says."""
-        if inp.getNodeGraphString():
-            other = inp.getDocument().getNodeGraph(inp.getNodeGraphString())
-            usd_input.ConnectToSource(graph_output(other, inp.getOutputString() or "out"))
-        elif inp.getNodeName():
-            node = scope.getNode(inp.getNodeName())
-            usd_input.ConnectToSource(node_output(node, graph, inp.getOutputString() or "out"))
-        elif inp.getInterfaceName() and graph is not None:
-            outer = graph.getInput(inp.getInterfaceName())
-            prim = graph_prim(graph)
-            interface = prim.GetInput(outer.getName()) or prim.CreateInput(
-                outer.getName(), SDF_TYPES[outer.getType()]
-            )
-            if outer.getValueString():
-                set_value(interface, outer)
-            usd_input.ConnectToSource(interface)
-        elif inp.getValueString():
-            set_value(usd_input, inp)
-
-    def graph_output(graph, name: str) -> UsdShade.Output:
-        key = (graph.getName(), "", name)
-        if key not in outputs:
-            prim = graph_prim(graph)
-            out = graph.getOutput(name)
-            usd_output = prim.CreateOutput(
-                name, SDF_TYPES.get(out.getType(), Sdf.ValueTypeNames.Token)
-            )
-            outputs[key] = usd_output
-            feed(usd_output, out, graph, graph)
-        return outputs[key]
-
-    def node_output(node, graph, name: str) -> UsdShade.Output:
-        scope = graph.getName() if graph is not None else ""
-        key = (scope, node.getName(), name)
-        if key in outputs:
-            return outputs[key]
-        parent = graph_prim(graph).GetPath() if graph is not None else material.GetPath()
-        shader = UsdShade.Shader.Define(stage, parent.AppendChild(_prim_name(node.getName())))
-        nodedef = node.getNodeDef()
-        if nodedef is None:
-            raise ValueError(
-                f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no definition"
-            )
-        shader.SetShaderId(nodedef.getName())
-        for out in nodedef.getActiveOutputs():
-            outputs[(scope, node.getName(), out.getName())] = shader.CreateOutput(
-                out.getName(), SDF_TYPES.get(out.getType(), Sdf.ValueTypeNames.Token)
-            )
-        for inp in node.getInputs():
-            usd_input = shader.CreateInput(
-                inp.getName(), SDF_TYPES.get(inp.getType(), Sdf.ValueTypeNames.Token)
-            )
-            feed(usd_input, inp, graph if graph is not None else node.getDocument(), graph)
-        return outputs[(scope, node.getName(), name)]
-
-    mx_material = doc.getNode(material_name)
-    for terminal, kind in (("surfaceshader", "surface"), ("displacementshader", "displacement")):
-        inp = mx_material.getInput(terminal)
-        if inp is None or not inp.getNodeName():
-            continue
-        node = doc.getNode(inp.getNodeName())
-        out = node_output(node, None, "out")
-        if kind == "surface":
-            material.CreateSurfaceOutput("mtlx").ConnectToSource(out)
-        else:
-            material.CreateDisplacementOutput("mtlx").ConnectToSource(out)
-    return material
-
-
-def _prim_name(name: str) -> str:
-    """A MaterialX element name as a USD prim name."""
-    clean = "".join(c if c.isalnum() or c == "_" else "_" for c in name)
-    return clean if clean[:1].isalpha() or clean[:1] == "_" else f"_{clean}"
+    return usd_mtlx(doc, stage, material_name, root)
 
 
 # -- the stage --------------------------------------------------------------------------------------

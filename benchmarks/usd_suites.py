@@ -383,6 +383,12 @@ def checks(metrics: dict) -> dict[str, bool | None]:
 
 def run_one(stage: Path, out: Path, args) -> dict:
     """Run the worker for one stage in a fresh process; its metrics plus status and stderr tail."""
+    report = out / "metrics.json"
+    if getattr(args, "resume", False) and report.is_file():  # measured by an earlier run
+        metrics = json.loads(report.read_text())
+        metrics.setdefault("status", "ok")
+        return metrics
+    report.unlink(missing_ok=True)  # a stale report must not stand for a failed worker
     cmd = [sys.executable, __file__, "--worker", str(stage), "-o", str(out)]
     cmd += ["--size", str(args.size), "--spp", str(args.spp)]
     started = time.perf_counter()
@@ -393,7 +399,6 @@ def run_one(stage: Path, out: Path, args) -> dict:
     except subprocess.TimeoutExpired:
         return {"stage": str(stage), "status": "timeout", "detail": f">{WORKER_TIMEOUT_S} s"}
     wall = round(time.perf_counter() - started, 1)
-    report = out / "metrics.json"
     if proc.returncode == 0 and report.is_file() and "Traceback" not in proc.stderr:
         metrics = json.loads(report.read_text())
         metrics.setdefault("status", "ok")
@@ -438,6 +443,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=int, default=128, help="image width (default 128)")
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--only", default=None, help="only stages whose path contains this")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="reuse each stage's metrics.json left in -o by an earlier run (render only the rest)",
+    )
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
 

@@ -84,8 +84,19 @@ def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
         raise InputError(path, f"cannot open USD stage: {usd_error_message(exc)}") from None
     if stage is None:
         raise InputError(path, "cannot open USD stage")
-    for error in stage.GetCompositionErrors():
-        diag.warn(path, f"composition error: {first_line(error)}")
+    errors = [first_line(error) for error in stage.GetCompositionErrors()]
+    if any(".mtlx" in error.lower() for error in errors):  # usd-core has no usdMtlx
+        from pavonine.render.shading.mtlx_documents import substitute_references
+
+        translated = substitute_references(stage, diag)
+        errors = [
+            f"{e} (its materials are read with the MaterialX package instead, as usdMtlx would)"
+            if any(f"@{doc}@" in e for doc in translated)
+            else e
+            for e in errors
+        ]
+    for error in errors:
+        diag.warn(path, f"composition error: {error}")
     return stage
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from pxr import Sdf, UsdShade
@@ -202,3 +204,68 @@ def test_place2d_matrix_follows_the_materialx_graph(tmp_path, order):
         else:
             expected = rotate2d(t - pivot - offset, 30.0) / scale + pivot
         assert (matrix @ [*t, 1.0])[:2] == pytest.approx(expected)
+
+
+PLASTIC_MTLX = """<?xml version="1.0"?>
+<materialx version="1.38" colorspace="lin_rec709" fileprefix="./textures/">
+  <UsdPreviewSurface name="SR_blue" type="surfaceshader">
+    <input name="diffuseColor" type="color3" value="0.05, 0.05, 0.8" />
+    <input name="roughness" type="float" value="1.0" />
+  </UsdPreviewSurface>
+  <surfacematerial name="Blue" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="SR_blue" />
+  </surfacematerial>
+  <nodegraph name="NG">
+    <image name="picture" type="color3">
+      <input name="file" type="filename" value="./textures/halves.exr" />
+    </image>
+    <output name="out" type="color3" nodename="picture" />
+  </nodegraph>
+  <standard_surface name="SR_pictured" type="surfaceshader">
+    <input name="base_color" type="color3" nodegraph="NG" output="out" />
+  </standard_surface>
+  <surfacematerial name="Pictured" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="SR_pictured" />
+  </surfacematerial>
+</materialx>
+"""
+
+
+def test_a_referenced_mtlx_document_is_read_as_usdmtlx_would(tmp_path):
+    """usd-core cannot open ``references = @look.mtlx@</MaterialX>`` (no usdMtlx): the renderer
+    translates the document itself into usdMtlx's ``/MaterialX/Materials/<name>``, so the quad is
+    blue, not the fallback grey (usd-wg ``MaterialXTest/basic.usda``), and says how in the
+    composition error's warning; its file names resolve as usdMtlx 22.08 read that suite
+    (``fileprefix`` and a name that already holds it)."""
+    from pavonine.render.delegate import open_stage
+    from pavonine.render.diagnostics import Diagnostics, StageWarning
+    from pavonine.render.shading.mtlx_documents import ROOT
+
+    (tmp_path / "textures").mkdir()
+    image(tmp_path / "textures" / "halves.exr", halves(RED, BLUE))
+    (tmp_path / "look.mtlx").write_text(PLASTIC_MTLX)
+    stage, mesh = lit_quad(tmp_path, "referenced")
+    scope = stage.DefinePrim("/MaterialX", "Scope")
+    scope.GetReferences().AddReference("./look.mtlx", "/MaterialX")
+    material = UsdShade.Material(stage.GetPrimAtPath(f"{ROOT}/Blue"))
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).GetDirectBindingRel().SetTargets(
+        [Sdf.Path(f"{ROOT}/Blue")]
+    )
+    stage.Save()
+    assert not material  # usd-core alone composes nothing there
+    result = render_quietly(stage)
+    colour = patch(result.rgb, *MIDDLE)
+    assert colour[2] > 4 * colour[0], colour
+    (warning,) = [w for w in result.warnings if "composition error" in w]
+    assert "look.mtlx" in warning and "read with the MaterialX package" in warning
+    assert not [w for w in result.warnings if "not supported" in w or "not found" in w]
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        opened = open_stage(stage.GetRootLayer().realPath, Diagnostics())
+    pictured = opened.GetPrimAtPath(f"{ROOT}/Pictured")
+    assert pictured.IsA(UsdShade.Material)
+    picture = opened.GetPrimAtPath(f"{ROOT}/Pictured/NG/picture")
+    file = UsdShade.Shader(picture).GetInput("file").Get()
+    assert picture and file.path == str(tmp_path / "textures" / "halves.exr")
+    assert not opened.GetRootLayer().dirty and opened.GetSessionLayer().GetPrimAtPath("/MaterialX")

@@ -66,7 +66,7 @@ def test_silhouette_agreement_and_checks_can_fail(suites, tmp_path):
 
 
 @pytest.mark.render
-def test_a_small_suite_runs_and_reports(suites, tmp_path):
+def test_a_small_suite_runs_and_reports(suites, tmp_path, monkeypatch):
     suite = tmp_path / "test_assets"
     suite.mkdir()
     (suite / "ball.usda").write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n')
@@ -84,3 +84,23 @@ def test_a_small_suite_runs_and_reports(suites, tmp_path):
         and "cannot open USD stage" in broken["metrics"]["detail"]
     )
     assert (out / "contact_sheet.png").stat().st_size > 0
+
+    # --resume reuses each stage the worker finished (its metrics.json, the unreadable one's too)
+    # and runs again only the one without (here: deleted, as a timed-out or crashed worker leaves)
+    (Path(rows["ball.usda"]["out"]) / "metrics.json").unlink()
+    launched = []
+    real_run = suites.subprocess.run
+
+    def counting_run(cmd, **kwargs):
+        launched.append(Path(cmd[3]).name)
+        return real_run(cmd, **kwargs)
+
+    monkeypatch.setattr(suites.subprocess, "run", counting_run)
+    assert suites.main([str(suite), "-o", str(out), "--size", "24", "--spp", "2", "--resume"]) == 0
+    monkeypatch.undo()
+    assert launched == ["ball.usda"]
+    again = {row["name"]: row for row in json.loads((out / "report.json").read_text())}
+    assert (
+        again["ball.usda"]["passed"]
+        and again["ball.usda"]["metrics"]["coverage"] == (rows["ball.usda"]["metrics"]["coverage"])
+    )
