@@ -205,10 +205,23 @@ def _plugin_class(variant: str):
                     self.constants.rod_length_nm,
                     SAMPLING_WAVELENGTH_NM,
                 )
-                _, within = glitter.slope_split(
-                    self.glitter, self.constants.block_sigma, sampling_sigma
+                speckle, within = glitter.speckle_split(
+                    self.glitter,
+                    self.constants.block_sigma,
+                    sampling_sigma,
+                    barbule.diffraction_sigma(self.constants.rod_length_nm, SAMPLING_WAVELENGTH_NM),
+                    barbule.diffraction_sigma(
+                        self.constants.block_length_nm, SAMPLING_WAVELENGTH_NM
+                    ),
                 )
-                self.block_alpha_x = float(barbule.SQRT2 * within)
+                # A grain sits at tilt + z·speckle(λ), speckle ∝ λ: over 380–780 nm it strays
+                # from its 550 nm place by up to ~0.4 z·speckle, so each grain is sampled with
+                # a lobe widened by a third of the speckle spread (sampling only).
+                self.grain_speckle = float(speckle)
+                self.block_alpha_x = float(barbule.SQRT2 * math.hypot(within, speckle / 3.0))
+                self.grains = glitter.grain_count(
+                    self.params.block_length_um, self.params.rod_length_um
+                )
             lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
             sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
             self.m_components = [
@@ -357,8 +370,14 @@ def _plugin_class(variant: str):
             if instance is not None:
                 seed = seed ^ ops.to_uint32(instance)
             seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
-            return glitter.block_slope(
-                self.glitter, self.constants.block_sigma, barbule_index, block_index, seed, ops
+            return glitter.block_state(
+                self.glitter,
+                self.constants.block_sigma,
+                barbule_index,
+                block_index,
+                seed,
+                self.grains,
+                ops,
             )
 
         @staticmethod
@@ -393,17 +412,31 @@ def _plugin_class(variant: str):
             return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
 
         def _block_normal_pdf(self, m, block):
-            """Density (per solid angle) of the block's normals: its shifted Beckmann ``D(m) m_z``."""
-            d = barbule.shifted_beckmann_ndf(
-                m.x, m.y, m.z, self.block_alpha_x, self.alpha_y, block, self.material.ops
+            """Density (per solid angle) of the normals the block's sampling draws: its grains'
+            shifted Beckmann lobes at 550 nm, widened (``D(m) m_z``)."""
+            d = glitter.block_ndf(
+                m.x,
+                m.y,
+                m.z,
+                self.block_alpha_x,
+                self.alpha_y,
+                block,
+                self.grain_speckle,
+                self.material.ops,
             )
             return d * m.z
 
-        def _sample_block_normal(self, sample2, block):
-            """A normal of the block's slope distribution (Box–Muller on ``sample2``)."""
+        def _sample_block_normal(self, u, sample2, block):
+            """A normal of the block's sampling lobes: grain by its share (``u`` uniform), then
+            Box–Muller on ``sample2``."""
+            centre = block.tilt + block.grains[0] * self.grain_speckle
+            cumulative = block.weights[0]
+            for z, w in zip(block.grains[1:], block.weights[1:], strict=True):
+                centre = dr.select(u >= cumulative, block.tilt + z * self.grain_speckle, centre)
+                cumulative = cumulative + w
             radius = dr.sqrt(-2.0 * dr.log(dr.maximum(1.0 - sample2.x, 1e-30)))
             phi = 2.0 * dr.pi * sample2.y
-            slope_x = block + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
+            slope_x = centre + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
             slope_y = self.alpha_y * barbule.SQRT2 * 0.5 * radius * dr.sin(phi)
             return dr.normalize(mi.Vector3f(-slope_x, -slope_y, 1.0))
 
@@ -450,7 +483,8 @@ def _plugin_class(variant: str):
                 )
                 m, _ = distr.sample(wi_b, sample2)
             else:
-                m = self._sample_block_normal(sample2, block)
+                u = sample1 / dr.maximum(share, 1e-30)
+                m = self._sample_block_normal(u, sample2, block)
             wo_glossy = mi.reflect(wi_b, m)
             wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
             wo_b = dr.select(glossy, wo_glossy, wo_diffuse)
