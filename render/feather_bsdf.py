@@ -67,6 +67,7 @@ from pavonine.render.feather_encoding import (
 from pavonine.render.plugins import register_once
 
 __all__ = [
+    "BARB_COORDINATE_ATTRIBUTE",
     "BARB_TANGENT_ATTRIBUTE",
     "DATA_MAPS",
     "DISPERSIONS",
@@ -91,6 +92,8 @@ __all__ = [
 ]
 
 BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
+#: Tessellated barbs' (length along, place across, barb id): ``barb_coordinates`` set.
+BARB_COORDINATE_ATTRIBUTE = "vertex_barb_coordinate"
 SAMPLING_WAVELENGTH_NM = 550.0
 QUANTITIES = ("interval", "radius", "count")
 MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
@@ -187,6 +190,7 @@ def _plugin_class(variant: str):
             self.maps = {name: props.get(name, None) for name in DATA_MAPS}
             self.primvars = {name: props.get(slot, None) for name, slot in PRIMVAR_SLOTS.items()}
             self.barb_tangents = bool(props.get("barb_tangents", False))
+            self.barb_coordinates = bool(props.get("barb_coordinates", False))
             self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
             self.alpha_x_sampling = float(
                 barbule.beckmann_alpha(
@@ -335,6 +339,7 @@ def _plugin_class(variant: str):
             t = dr.clip(t if offset is None else t + offset, 0.0, 1.0)
             stacks = self.material.stacks(cls, t)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
+            from_barb = angle
             if self.barb_tangents:
                 barb = si.sh_frame.to_local(self._barb_tangent(si, active))
                 usable = dr.square(barb.x) + dr.square(barb.y) > 1e-12
@@ -342,26 +347,42 @@ def _plugin_class(variant: str):
             share = self._map("melanin", si, active)
             scale = self._per_instance("structural_scale", si, active)
             share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
-            block = self._block_slope(si, angle, active) if self.glitter > 0.0 else None
+            block = None
+            if self.glitter > 0.0:
+                block = self._block_slope(si, from_barb if self.barb_coordinates else angle, active)
             return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, block
 
         def _block_slope(self, si, angle, active):
-            """The slope offset of the block under ``si`` (:mod:`pavonine.materials.glitter`).
+            """The block under ``si`` (:mod:`pavonine.materials.glitter`): its tilt and grains.
 
             On the vane sheet the block comes from the feather coordinate ``si.uv`` in µm
             (``u |dp/du|``, ``v |dp/dv|``) in the frame of the barbule axis ``angle`` (radians
-            from ``dp/du`` in the shading frame). A barb ribbon would pass its own coordinate
-            (along the barb → barbule, across the ribbon → block) and its barb index in the seed
-            here instead.
+            from ``dp/du`` in the shading frame). On a tessellated barb (``barb_coordinates``)
+            it comes from the barb's own coordinate (``BARB_COORDINATE_ATTRIBUTE``: length along
+            the barb and place across it, turned into the barbule axis ``angle`` from the barb),
+            and the barb's id goes into the seed.
             """
             ops = self.material.ops
             scale = self.world_unit_um
-            u_um = si.uv.x * dr.norm(si.dp_du) * scale
-            v_um = si.uv.y * dr.norm(si.dp_dv) * scale
-            flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
-            along, across, step = glitter.sheet_coordinates(
-                u_um, v_um, dr.select(flip, -angle, angle), ops
-            )
+            barb = None
+            if self.barb_coordinates:
+                local, linear = self._instance_local(si, active)
+                c = mi.Vector3f(si.shape.eval_attribute_3(BARB_COORDINATE_ATTRIBUTE, local, active))
+                if linear is not None:  # an instance's own scale (mean of its linear part)
+                    det = (
+                        linear[0] * (linear[4] * linear[8] - linear[5] * linear[7])
+                        - linear[1] * (linear[3] * linear[8] - linear[5] * linear[6])
+                        + linear[2] * (linear[3] * linear[7] - linear[4] * linear[6])
+                    )
+                    scale = scale * dr.cbrt(dr.abs(det))
+                u_um, v_um = c.x * scale, c.y * scale
+                barb = ops.to_uint32(dr.round(c.z))
+            else:
+                u_um = si.uv.x * dr.norm(si.dp_du) * scale
+                v_um = si.uv.y * dr.norm(si.dp_dv) * scale
+                flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
+                angle = dr.select(flip, -angle, angle)
+            along, across, step = glitter.sheet_coordinates(u_um, v_um, angle, ops)
             barbule_index, block_index = glitter.block_cell(
                 along, across, self.params.block_length_um, self.params.barbule_width_um, ops
             )
@@ -370,6 +391,8 @@ def _plugin_class(variant: str):
             if instance is not None:
                 seed = seed ^ ops.to_uint32(instance)
             seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
+            if barb is not None:
+                seed = glitter.lowbias32(seed ^ ((barb * 0x2545F491) & glitter.MASK32))
             return glitter.block_state(
                 self.glitter,
                 self.constants.block_sigma,

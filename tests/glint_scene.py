@@ -28,8 +28,10 @@ def closeup_stage(
     resolution: int = 128,
     uv: bool = False,
     glitter_seed: int | None = None,
+    geometry: str = "sheet",
 ) -> Path:
-    """Write the close-up stage at ``path`` (referencing the shipped eye feather)."""
+    """Write the close-up stage at ``path`` (referencing the shipped eye feather, its
+    ``geometry`` variant selected: ``sheet`` or ``barbs``)."""
     stage = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageMetersPerUnit(stage, 0.01)
     UsdGeom.SetStageUpAxis(stage, "Y")
@@ -37,6 +39,7 @@ def closeup_stage(
     stage.SetDefaultPrim(world.GetPrim())
     feather = stage.DefinePrim("/World/Feather", "Xform")
     feather.GetReferences().AddReference(str(EYE))
+    feather.GetVariantSets().GetVariantSet("geometry").SetVariantSelection(geometry)
     material = stage.OverridePrim("/World/Feather/Materials/Feather")
     material.CreateAttribute("pavonine:glitter", Sdf.ValueTypeNames.Float).Set(float(glitter))
     if glitter_seed is not None:

@@ -233,3 +233,29 @@ def test_widths_overshooting_below_zero_in_the_basis_are_clamped():
     across = edges(surface)[:, 1] - edges(surface)[:, 0]
     assert messages == [] and np.all(across[:, 1] <= 0)  # S = T × N = −Y: no edge crosses over
     assert across[:, 1].max() == 0.0
+
+
+def test_ribbons_carry_the_barb_coordinate_the_glitter_blocks_follow():
+    """Per vertex: arc length along the barb, place across it (counter-clockwise from the barb
+    seen from the front: the −S edge at +w/2) and the barb's id (``pavonine_barbId``, else the
+    curve's index)."""
+    from pavonine.render.mesh import BARB_COORDINATE
+
+    points = [(0, 0, 0), (3, 0, 0), (3, 4, 0), (0, 1, 0), (0, 2, 0)]
+    curves = ribbon(points, [(0, 0, 1)] * 5, kind="linear", counts=[3, 2], width=0.5)
+    surface, _ = tessellate(curves)
+    coordinate = surface.primvars[BARB_COORDINATE].values.reshape(-1, 2, 3)
+    np.testing.assert_allclose(coordinate[:, 0, 0], coordinate[:, 1, 0])
+    np.testing.assert_allclose(np.unique(coordinate[:, 0, 0]), [0.0, 1.0, 3.0, 7.0])
+    np.testing.assert_allclose(coordinate[:, :, 1], np.tile([0.25, -0.25], (len(coordinate), 1)))
+    # +w/2 lies counter-clockwise of the barb direction seen from the normal (+z): +y for +x
+    sides = edges(surface)
+    first = coordinate[:, 0, 2] == 0
+    assert np.all(sides[first & (coordinate[:, 0, 0] < 3), 0, 1] > 0)
+    assert set(np.unique(coordinate[:, :, 2])) == {0.0, 1.0}
+    UsdGeom.PrimvarsAPI(curves).CreatePrimvar(
+        "pavonine_barbId", Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.uniform
+    ).Set([17, 4])
+    surface, _ = tessellate(curves)
+    ids = surface.primvars[BARB_COORDINATE].values[:, 2]
+    assert set(np.unique(ids)) == {17.0, 4.0}
