@@ -44,7 +44,6 @@ from __future__ import annotations
 import math
 from typing import Any, NamedTuple
 
-from pavonine.materials import barbule
 from pavonine.materials.arraymath import NUMPY
 
 #: Block length along the barbule (µm): "typically 20–30 µm" (paper §2.1); the middle.
@@ -190,11 +189,17 @@ def block_ndf(
 ) -> Any:
     """The block's normal distribution: its grains' shifted Beckmann lobes (roughness ``alpha_x``
     along, ``alpha_y`` across), grain ``k`` at slope ``tilt + z_k · speckle``, weighted by its
-    share (:func:`pavonine.materials.barbule.shifted_beckmann_ndf`; ``∫ D h_z dω = 1``)."""
-    d = 0.0
+    share: ``Σ_k w_k D_k`` with ``D_k`` :func:`pavonine.materials.barbule.shifted_beckmann_ndf`
+    (``∫ D h_z dω = 1``), the factors the grains share computed once."""
+    hz2 = hz * hz
+    safe = ops.maximum(hz2, 1e-12)
+    inv_z = 1.0 / ops.maximum(hz, 1e-6)
+    sx = -hx * inv_z - block.tilt
+    sy = hy * inv_z
+    inv_ax2 = 1.0 / (alpha_x * alpha_x)
+    shared = ops.exp(-(sy * sy) / (alpha_y * alpha_y)) / (math.pi * alpha_x * alpha_y * safe * safe)
+    total = 0.0
     for z, w in zip(block.grains, block.weights, strict=True):
-        lobe = barbule.shifted_beckmann_ndf(
-            hx, hy, hz, alpha_x, alpha_y, block.tilt + z * speckle, ops
-        )
-        d = d + w * lobe
-    return d
+        d = sx - z * speckle
+        total = total + w * ops.exp(-(d * d) * inv_ax2)
+    return ops.select(hz > 0.0, shared * total, 0.0)
