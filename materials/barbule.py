@@ -76,8 +76,14 @@ def along_sigma(block_sigma: Any, rod_length: Any, wavelength: Any, ops: Any = N
     Gaussian of σ = 0.376 λ/ℓ, added in quadrature to the blocks' Gaussian spread.
     ``wavelength`` and ``rod_length`` in the same unit.
     """
-    diffraction = SLIT_SIGMA_PER_LAMBDA_OVER_LENGTH * wavelength / rod_length
+    diffraction = diffraction_sigma(rod_length, wavelength)
     return ops.sqrt(block_sigma * block_sigma + diffraction * diffraction)
+
+
+def diffraction_sigma(length: Any, wavelength: Any) -> Any:
+    """σ (radians) of the Gaussian fitted to the central lobe of a slit of ``length``:
+    ``0.376 λ/ℓ`` (sinc² FWHM 0.886 λ/ℓ over 2.355; same units for both lengths)."""
+    return SLIT_SIGMA_PER_LAMBDA_OVER_LENGTH * wavelength / length
 
 
 def beckmann_ndf(hx: Any, hy: Any, hz: Any, alpha_x: Any, alpha_y: Any, ops: Any = NUMPY) -> Any:

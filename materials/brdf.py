@@ -78,6 +78,7 @@ class MaterialConstants:
     rod_length_nm: float
     interference: str
     glitter: float = 0.0  # share of the along-barbule spread that is between blocks
+    block_length_nm: float = 25_000.0  # a block's length: its speckle grains' width
 
     @classmethod
     def from_parameters(cls, params: FeatherParameters) -> MaterialConstants:
@@ -89,6 +90,7 @@ class MaterialConstants:
             rod_length_nm=params.rod_length_um * UM_TO_NM,
             interference=params.interference,
             glitter=params.glitter,
+            block_length_nm=params.block_length_um * UM_TO_NM,
         )
 
 
@@ -146,13 +148,13 @@ def structural_brdf(
     long_stack: tuple[Any, Any, Any],
     short_stack: tuple[Any, Any, Any],
     ops: Any = NUMPY,
-    block_slope: Any = None,
+    block: Any = None,
 ) -> Any:
     """Structural-colour BRDF (1/sr) in the barbule frame; stacks are ``(interval_nm, radius_nm, count)``.
 
     Two-sided: light from below the vane is treated as the mirror image from above. Zero when
-    ``ω_i`` and ``ω_o`` lie on opposite sides. ``block_slope``: the mean slope offset of the block
-    the point lies on (:mod:`pavonine.materials.glitter`); ``None`` (or glitter 0) is the smooth
+    ``ω_i`` and ``ω_o`` lie on opposite sides. ``block``: the tilt and speckle grains of the block
+    the point lies on (:class:`pavonine.materials.glitter.Block`); ``None`` (or glitter 0) is the smooth
     average over blocks. Masking is the whole microsurface's (Smith G of the smooth lobe), so the
     average over blocks is exactly the smooth BRDF.
     """
@@ -177,12 +179,18 @@ def structural_brdf(
     )
     alpha_x = barbule.beckmann_alpha(sigma_x, ops)
     alpha_y = barbule.SQRT2 * math.tan(constants.crescent_sigma)
-    if block_slope is None or constants.glitter == 0.0:
+    if block is None or constants.glitter == 0.0:
         d = barbule.beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, ops)
     else:
-        _, within = glitter.slope_split(constants.glitter, constants.block_sigma, sigma_x, ops)
-        lobe_x = barbule.SQRT2 * within
-        d = barbule.shifted_beckmann_ndf(hx, hy, hz, lobe_x, alpha_y, block_slope, ops)
+        speckle, within = glitter.speckle_split(
+            constants.glitter,
+            constants.block_sigma,
+            sigma_x,
+            barbule.diffraction_sigma(constants.rod_length_nm, wavelength_nm),
+            barbule.diffraction_sigma(constants.block_length_nm, wavelength_nm),
+            ops,
+        )
+        d = glitter.block_ndf(hx, hy, hz, barbule.SQRT2 * within, alpha_y, block, speckle, ops)
     g = barbule.beckmann_smith_g1(ix, iy, iz, cos_d, alpha_x, alpha_y, ops)
     g = g * barbule.beckmann_smith_g1(
         ox, oy, oz, ox * hx + oy * hy + oz * hz, alpha_x, alpha_y, ops
@@ -203,11 +211,11 @@ def feather_brdf(
     structural_share: Any,
     melanin_albedo: Any,
     ops: Any = NUMPY,
-    block_slope: Any = None,
+    block: Any = None,
 ) -> Any:
     """Full BRDF (1/sr): ``w f_structural + (1 − w) ρ_melanin / π`` (paper §3.3.6), two-sided."""
     structural = structural_brdf(
-        constants, table, wi, wo, wavelength_nm, long_stack, short_stack, ops, block_slope
+        constants, table, wi, wo, wavelength_nm, long_stack, short_stack, ops, block
     )
     same_side = wi[2] * wo[2] > 0.0
     diffuse = ops.select(same_side, melanin_albedo * (1.0 / math.pi), 0.0)
@@ -287,9 +295,9 @@ class FeatherModel:
         wavelength_nm,
         ocellar_class: int = 0,
         gradation: float = 0.0,
-        block_slope=None,
+        block=None,
     ):
-        """Structural-colour BRDF only (1/sr); ``block_slope`` as in :func:`structural_brdf`."""
+        """Structural-colour BRDF only (1/sr); ``block`` as in :func:`structural_brdf`."""
         wi, wo = np.asarray(wi, float), np.asarray(wo, float)
         long_stack, short_stack = self.stacks_nm(ocellar_class, gradation)
         return structural_brdf(
@@ -300,7 +308,7 @@ class FeatherModel:
             np.asarray(wavelength_nm, float),
             long_stack,
             short_stack,
-            block_slope=block_slope,
+            block=block,
         )
 
     def brdf(
@@ -311,9 +319,9 @@ class FeatherModel:
         ocellar_class: int = 0,
         gradation: float = 0.0,
         structural_share: float = 1.0,
-        block_slope=None,
+        block=None,
     ) -> np.ndarray:
-        """Full BRDF (1/sr), melanin mix included; ``block_slope`` as in :func:`structural_brdf`."""
+        """Full BRDF (1/sr), melanin mix included; ``block`` as in :func:`structural_brdf`."""
         wi, wo = np.asarray(wi, float), np.asarray(wo, float)
         wavelength_nm = np.asarray(wavelength_nm, float)
         long_stack, short_stack = self.stacks_nm(ocellar_class, gradation)
@@ -327,7 +335,7 @@ class FeatherModel:
             short_stack,
             structural_share,
             melanin_albedo(self.params.melanin_color, wavelength_nm),
-            block_slope=block_slope,
+            block=block,
         )
 
 

@@ -67,6 +67,7 @@ from pavonine.render.feather_encoding import (
 from pavonine.render.plugins import register_once
 
 __all__ = [
+    "BARB_COORDINATE_ATTRIBUTE",
     "BARB_TANGENT_ATTRIBUTE",
     "DATA_MAPS",
     "DISPERSIONS",
@@ -91,6 +92,8 @@ __all__ = [
 ]
 
 BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
+#: Tessellated barbs' (length along, place across, barb id): ``barb_coordinates`` set.
+BARB_COORDINATE_ATTRIBUTE = "vertex_barb_coordinate"
 SAMPLING_WAVELENGTH_NM = 550.0
 QUANTITIES = ("interval", "radius", "count")
 MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
@@ -187,6 +190,7 @@ def _plugin_class(variant: str):
             self.maps = {name: props.get(name, None) for name in DATA_MAPS}
             self.primvars = {name: props.get(slot, None) for name, slot in PRIMVAR_SLOTS.items()}
             self.barb_tangents = bool(props.get("barb_tangents", False))
+            self.barb_coordinates = bool(props.get("barb_coordinates", False))
             self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
             self.alpha_x_sampling = float(
                 barbule.beckmann_alpha(
@@ -205,10 +209,23 @@ def _plugin_class(variant: str):
                     self.constants.rod_length_nm,
                     SAMPLING_WAVELENGTH_NM,
                 )
-                _, within = glitter.slope_split(
-                    self.glitter, self.constants.block_sigma, sampling_sigma
+                speckle, within = glitter.speckle_split(
+                    self.glitter,
+                    self.constants.block_sigma,
+                    sampling_sigma,
+                    barbule.diffraction_sigma(self.constants.rod_length_nm, SAMPLING_WAVELENGTH_NM),
+                    barbule.diffraction_sigma(
+                        self.constants.block_length_nm, SAMPLING_WAVELENGTH_NM
+                    ),
                 )
-                self.block_alpha_x = float(barbule.SQRT2 * within)
+                # A grain sits at tilt + z·speckle(λ), speckle ∝ λ: over 380–780 nm it strays
+                # from its 550 nm place by up to ~0.4 z·speckle, so each grain is sampled with
+                # a lobe widened by a third of the speckle spread (sampling only).
+                self.grain_speckle = float(speckle)
+                self.block_alpha_x = float(barbule.SQRT2 * math.hypot(within, speckle / 3.0))
+                self.grains = glitter.grain_count(
+                    self.params.block_length_um, self.params.rod_length_um
+                )
             lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
             sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
             self.m_components = [
@@ -333,6 +350,7 @@ def _plugin_class(variant: str):
             t = dr.clip(t if offset is None else t + offset, 0.0, 1.0)
             stacks = self.material.stacks(cls, t)
             angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
+            from_barb = angle
             if self.barb_tangents:
                 barb = si.sh_frame.to_local(self._barb_tangent(si, active))
                 usable = dr.square(barb.x) + dr.square(barb.y) > 1e-12
@@ -340,26 +358,42 @@ def _plugin_class(variant: str):
             share = self._map("melanin", si, active)
             scale = self._per_instance("structural_scale", si, active)
             share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
-            block = self._block_slope(si, angle, active) if self.glitter > 0.0 else None
+            block = None
+            if self.glitter > 0.0:
+                block = self._block_slope(si, from_barb if self.barb_coordinates else angle, active)
             return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, block
 
         def _block_slope(self, si, angle, active):
-            """The slope offset of the block under ``si`` (:mod:`pavonine.materials.glitter`).
+            """The block under ``si`` (:mod:`pavonine.materials.glitter`): its tilt and grains.
 
             On the vane sheet the block comes from the feather coordinate ``si.uv`` in µm
             (``u |dp/du|``, ``v |dp/dv|``) in the frame of the barbule axis ``angle`` (radians
-            from ``dp/du`` in the shading frame). A barb ribbon would pass its own coordinate
-            (along the barb → barbule, across the ribbon → block) and its barb index in the seed
-            here instead.
+            from ``dp/du`` in the shading frame). On a tessellated barb (``barb_coordinates``)
+            it comes from the barb's own coordinate (``BARB_COORDINATE_ATTRIBUTE``: length along
+            the barb and place across it, turned into the barbule axis ``angle`` from the barb),
+            and the barb's id goes into the seed.
             """
             ops = self.material.ops
             scale = self.world_unit_um
-            u_um = si.uv.x * dr.norm(si.dp_du) * scale
-            v_um = si.uv.y * dr.norm(si.dp_dv) * scale
-            flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
-            along, across, step = glitter.sheet_coordinates(
-                u_um, v_um, dr.select(flip, -angle, angle), ops
-            )
+            barb = None
+            if self.barb_coordinates:
+                local, linear = self._instance_local(si, active)
+                c = mi.Vector3f(si.shape.eval_attribute_3(BARB_COORDINATE_ATTRIBUTE, local, active))
+                if linear is not None:  # an instance's own scale (mean of its linear part)
+                    det = (
+                        linear[0] * (linear[4] * linear[8] - linear[5] * linear[7])
+                        - linear[1] * (linear[3] * linear[8] - linear[5] * linear[6])
+                        + linear[2] * (linear[3] * linear[7] - linear[4] * linear[6])
+                    )
+                    scale = scale * dr.cbrt(dr.abs(det))
+                u_um, v_um = c.x * scale, c.y * scale
+                barb = ops.to_uint32(dr.round(c.z))
+            else:
+                u_um = si.uv.x * dr.norm(si.dp_du) * scale
+                v_um = si.uv.y * dr.norm(si.dp_dv) * scale
+                flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
+                angle = dr.select(flip, -angle, angle)
+            along, across, step = glitter.sheet_coordinates(u_um, v_um, angle, ops)
             barbule_index, block_index = glitter.block_cell(
                 along, across, self.params.block_length_um, self.params.barbule_width_um, ops
             )
@@ -368,8 +402,16 @@ def _plugin_class(variant: str):
             if instance is not None:
                 seed = seed ^ ops.to_uint32(instance)
             seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
-            return glitter.block_slope(
-                self.glitter, self.constants.block_sigma, barbule_index, block_index, seed, ops
+            if barb is not None:
+                seed = glitter.lowbias32(seed ^ ((barb * 0x2545F491) & glitter.MASK32))
+            return glitter.block_state(
+                self.glitter,
+                self.constants.block_sigma,
+                barbule_index,
+                block_index,
+                seed,
+                self.grains,
+                ops,
             )
 
         @staticmethod
@@ -404,17 +446,31 @@ def _plugin_class(variant: str):
             return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
 
         def _block_normal_pdf(self, m, block):
-            """Density (per solid angle) of the block's normals: its shifted Beckmann ``D(m) m_z``."""
-            d = barbule.shifted_beckmann_ndf(
-                m.x, m.y, m.z, self.block_alpha_x, self.alpha_y, block, self.material.ops
+            """Density (per solid angle) of the normals the block's sampling draws: its grains'
+            shifted Beckmann lobes at 550 nm, widened (``D(m) m_z``)."""
+            d = glitter.block_ndf(
+                m.x,
+                m.y,
+                m.z,
+                self.block_alpha_x,
+                self.alpha_y,
+                block,
+                self.grain_speckle,
+                self.material.ops,
             )
             return d * m.z
 
-        def _sample_block_normal(self, sample2, block):
-            """A normal of the block's slope distribution (Box–Muller on ``sample2``)."""
+        def _sample_block_normal(self, u, sample2, block):
+            """A normal of the block's sampling lobes: grain by its share (``u`` uniform), then
+            Box–Muller on ``sample2``."""
+            centre = block.tilt + block.grains[0] * self.grain_speckle
+            cumulative = block.weights[0]
+            for z, w in zip(block.grains[1:], block.weights[1:], strict=True):
+                centre = dr.select(u >= cumulative, block.tilt + z * self.grain_speckle, centre)
+                cumulative = cumulative + w
             radius = dr.sqrt(-2.0 * dr.log(dr.maximum(1.0 - sample2.x, 1e-30)))
             phi = 2.0 * dr.pi * sample2.y
-            slope_x = block + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
+            slope_x = centre + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
             slope_y = self.alpha_y * barbule.SQRT2 * 0.5 * radius * dr.sin(phi)
             return dr.normalize(mi.Vector3f(-slope_x, -slope_y, 1.0))
 
@@ -461,7 +517,8 @@ def _plugin_class(variant: str):
                 )
                 m, _ = distr.sample(wi_b, sample2)
             else:
-                m = self._sample_block_normal(sample2, block)
+                u = sample1 / dr.maximum(share, 1e-30)
+                m = self._sample_block_normal(u, sample2, block)
             wo_glossy = mi.reflect(wi_b, m)
             wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
             wo_b = dr.select(glossy, wo_glossy, wo_diffuse)

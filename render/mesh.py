@@ -47,6 +47,9 @@ from pavonine.render.xform import (
 __all__ = ["Primvar", "Surface", "Topology", "mesh_attribute_name"]
 
 SCHEMES = ("catmullClark", "loop", "bilinear", "none")  # USD's fallback first
+#: Tessellated barbs' own coordinate per vertex (:mod:`pavonine.render.curves.sampling`): length
+#: along the barb and across it (scene units; world-scaled here), and the barb's id.
+BARB_COORDINATE = "pavonine_barbCoordinate"
 
 
 @dataclass
@@ -394,7 +397,11 @@ def build_triangle_mesh(
     for primvar_name, mi_name in feather_attributes.items():
         primvar = surface.primvars.get(primvar_name)
         values = None if primvar is None else corner_values(primvar, primvar_name)
-        if values is not None and values.shape[1] == 3:
+        if primvar_name == BARB_COORDINATE:  # lengths scale with the transform, the id does not
+            scale = abs(np.linalg.det(matrix_usd[:3, :3])) ** (1.0 / 3.0)
+            coordinate = np.zeros((len(out.positions), 3)) if values is None else values
+            out.attributes[mi_name] = (coordinate * [scale, scale, 1.0]).astype(np.float32)
+        elif values is not None and values.shape[1] == 3:
             out.attributes[mi_name] = transform_directions(values, matrix_usd).astype(np.float32)
         else:
             # Requested but not authored (e.g. a hand-made feather mesh without barb tangents):

@@ -56,7 +56,8 @@ def face_normals(surface):
     t = surface.topology
     corners = t.points[t.face_vertex_indices[t.triangles]]
     n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    return n / np.linalg.norm(n, axis=1, keepdims=True)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)  # no area: no normal
 
 
 @pytest.mark.parametrize("normal", [(0, 0, 1), (0, 1, 0), (0, 0.6, -0.8)])
@@ -264,3 +265,29 @@ def test_a_tapering_ribbon_has_no_triangle_mitsuba_cannot_interpolate_on(tip):
     assert np.all(det[area > 0] > 0)
     assert area.max() > 0 and (area == 0).any()  # the root's zero-width end: no area to hit
     assert np.all(face_normals(surface)[area > 0][:, 2] > 0.999)
+
+
+def test_ribbons_carry_the_barb_coordinate_the_glitter_blocks_follow():
+    """Per vertex: arc length along the barb, place across it (counter-clockwise from the barb
+    seen from the front: the −S edge at +w/2) and the barb's id (``pavonine_barbId``, else the
+    curve's index)."""
+    from pavonine.render.mesh import BARB_COORDINATE
+
+    points = [(0, 0, 0), (3, 0, 0), (3, 4, 0), (0, 1, 0), (0, 2, 0)]
+    curves = ribbon(points, [(0, 0, 1)] * 5, kind="linear", counts=[3, 2], width=0.5)
+    surface, _ = tessellate(curves)
+    coordinate = surface.primvars[BARB_COORDINATE].values.reshape(-1, 2, 3)
+    np.testing.assert_allclose(coordinate[:, 0, 0], coordinate[:, 1, 0])
+    np.testing.assert_allclose(np.unique(coordinate[:, 0, 0]), [0.0, 1.0, 3.0, 7.0])
+    np.testing.assert_allclose(coordinate[:, :, 1], np.tile([0.25, -0.25], (len(coordinate), 1)))
+    # +w/2 lies counter-clockwise of the barb direction seen from the normal (+z): +y for +x
+    sides = edges(surface)
+    first = coordinate[:, 0, 2] == 0
+    assert np.all(sides[first & (coordinate[:, 0, 0] < 3), 0, 1] > 0)
+    assert set(np.unique(coordinate[:, :, 2])) == {0.0, 1.0}
+    UsdGeom.PrimvarsAPI(curves).CreatePrimvar(
+        "pavonine_barbId", Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.uniform
+    ).Set([17, 4])
+    surface, _ = tessellate(curves)
+    ids = surface.primvars[BARB_COORDINATE].values[:, 2]
+    assert set(np.unique(ids)) == {17.0, 4.0}

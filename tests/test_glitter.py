@@ -67,7 +67,7 @@ def test_sampling_passes_chi2_with_glitter(incidence, seed, mode):
         pdf_func=pdf,
         sample_dim=3,
         sample_count=200_000,
-        ires=16,  # the block's lobe is ~2.4° wide along the barbule: integrate the pdf finely
+        ires=16,  # a block's grains are ~1° wide along the barbule: integrate the pdf finely
     )
     assert test.run(), test.messages
 
@@ -80,15 +80,21 @@ def _frame_sheet(wi, lam, uv):
     return si
 
 
-def _expected_block_slope(params, uv, angle, unit_um=1.0e4):
-    """The block slope the renderer should find, from the NumPy side of the same functions."""
+def _expected_block(params, uv, angle, unit_um=1.0e4):
+    """The block the renderer should find, from the NumPy side of the same functions."""
     along, across, step = glitter.sheet_coordinates(uv[:, 0] * unit_um, uv[:, 1] * unit_um, angle)
     barbule_index, block_index = glitter.block_cell(
         along, across, params.block_length_um, params.barbule_width_um
     )
     seed = glitter.lowbias32(params.glitter_seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
-    return glitter.block_slope(
-        params.glitter, math.radians(params.block_sigma_deg), barbule_index, block_index, seed
+    grains = glitter.grain_count(params.block_length_um, params.rod_length_um)
+    return glitter.block_state(
+        params.glitter,
+        math.radians(params.block_sigma_deg),
+        barbule_index,
+        block_index,
+        seed,
+        grains,
     )
 
 
@@ -105,14 +111,15 @@ def test_plugin_eval_with_glitter_equals_analysis_model(params):
     angle = 0.2
     bsdf = mi.load_dict(_plugin_dict(params, 3, 0.5, angle, 0.8))
     value = np.array(bsdf.eval(mi.BSDFContext(), _frame_sheet(wi, lam, uv), mi.Vector3f(*wo.T)))
-    slope = _expected_block_slope(params, uv, angle * math.pi)
-    assert np.std(slope) > 0.1  # the blocks really differ (σ_block = 8°: tan = 0.14)
+    block = _expected_block(params, uv, angle * math.pi)
+    assert np.std(block.tilt) > 0.1  # the blocks really differ (σ_block = 8°: tan = 0.14)
+    assert len(block.grains) == 5  # 25 µm blocks of 5 µm rods
     c, s = math.cos(angle * math.pi), math.sin(angle * math.pi)
     rot = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
     model = optics.model_for(params)
     expected = np.stack(
         [
-            model.brdf(wi @ rot.T, wo @ rot.T, lam[:, k], 3, 0.5, 0.8, block_slope=slope) * wo[:, 2]
+            model.brdf(wi @ rot.T, wo @ rot.T, lam[:, k], 3, 0.5, 0.8, block=block) * wo[:, 2]
             for k in range(4)
         ]
     )
@@ -170,9 +177,10 @@ def test_glitter_zero_is_the_smooth_plugin():
 
 
 def test_the_average_over_blocks_is_the_smooth_brdf():
-    """A Gaussian of block offsets convolved with the block's lobe is the smooth lobe: the BRDF
-    averaged over the offsets (a fine quadrature in the deviate) equals glitter 0's for g = 1
-    and g = 0.5; and the hashed offsets are standard normal (100 000 blocks)."""
+    """A Gaussian of block tilts and of speckle-grain places convolved with a grain's lobe is the
+    smooth lobe: the BRDF averaged over the offset ``z √(tilt² + speckle²(λ))`` (a fine
+    quadrature in the deviate) equals glitter 0's for g = 1 and g = 0.5, at every wavelength;
+    a block's grain shares sum to 1 and average 1/M; the hashed deviates are standard normal."""
     rng = np.random.default_rng(1)
     n = 500
     wi, wo = _directions(rng, n), _directions(rng, n)
@@ -181,20 +189,32 @@ def test_the_average_over_blocks_is_the_smooth_brdf():
     nodes = np.linspace(-9.0, 9.0, 3601)
     weights = np.exp(-0.5 * nodes**2)
     weights = weights / weights.sum()
+    block_sigma = math.radians(TABLE1.block_sigma_deg)
+    along = barbule.along_sigma(block_sigma, TABLE1.rod_length_um * 1e3, lam)
+    envelope = barbule.diffraction_sigma(TABLE1.rod_length_um * 1e3, lam)
+    grain = barbule.diffraction_sigma(TABLE1.block_length_um * 1e3, lam)
+    zero = (np.zeros(n),)
     for g in (1.0, 0.5):
         model = optics.model_for(TABLE1.with_(glitter=g))
-        between = math.sqrt(g) * math.tan(math.radians(TABLE1.block_sigma_deg))
+        speckle, within = glitter.speckle_split(g, block_sigma, along, envelope, grain)
+        if g == 1.0:  # a grain is a few times narrower than the old block lobe (rod ends)
+            assert np.all(within < 0.3 * np.tan(envelope)), np.max(within / np.tan(envelope))
+        spread = np.hypot(math.sqrt(g) * math.tan(block_sigma), speckle)
         mean = sum(
-            w * model.structural(wi, wo, lam, 2, 0.5, block_slope=between * z)
+            w * model.structural(wi, wo, lam, 2, 0.5, block=glitter.Block(spread * z, zero, (1.0,)))
             for z, w in zip(nodes, weights, strict=True)
         )
         np.testing.assert_allclose(mean, smooth, rtol=1e-5, atol=1e-9)
     blocks = np.arange(100_000, dtype=np.uint64)
-    z = glitter.block_normal(blocks // 317, blocks % 317, 12345)
-    assert abs(z.mean()) < 0.015 and abs(z.std() - 1.0) < 0.01
+    state = glitter.block_state(1.0, block_sigma, blocks // 317, blocks % 317, 12345, 5)
+    np.testing.assert_allclose(sum(state.weights), 1.0, rtol=1e-12)
+    assert all(abs(w.mean() - 0.2) < 0.005 for w in state.weights)
     from scipy import stats
 
-    assert stats.kstest(z, "norm").pvalue > 0.01
+    for z in (glitter.block_normal(blocks // 317, blocks % 317, 12345), *state.grains):
+        assert abs(z.mean()) < 0.015 and abs(z.std() - 1.0) < 0.01
+        assert stats.kstest(z, "norm").pvalue > 0.01
+    assert abs(np.corrcoef(state.grains[0], state.grains[1])[0, 1]) < 0.01
 
 
 def test_shifted_beckmann_is_normalised_and_centred_on_the_block():

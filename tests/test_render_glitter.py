@@ -59,17 +59,42 @@ def test_glitter_glints_and_keeps_each_zones_colour(renders):
             assert colour.delta_e2000(lab[0], lab[1]) <= 2.0, (sun, zone)
 
 
-def test_glints_move_with_the_sun(renders):
-    """The brightest 1 % of pixels after a 2° turn of the sun: 64 % of them were among the
-    brightest before (measured; 31 % after 4°, 2 % after 8°). The blocks' own lobe is about
-    2.4° wide along the barbule (diffraction at 5 µm rods), and a 2° turn moves the half-vector
-    1°."""
-    (before, _), (after, _) = renders[1.0, 25.0], renders[1.0, 27.0]
-    a, b = before @ LUMA, after @ LUMA
-    mask_a, mask_b = a > np.percentile(a, 99), b > np.percentile(b, 99)
-    overlap = (mask_a & mask_b).sum() / mask_a.sum()
-    assert overlap < 0.75, overlap
-    (smooth_a, _), (smooth_b, _) = renders[0.0, 25.0], renders[0.0, 27.0]
-    sa, sb = smooth_a @ LUMA, smooth_b @ LUMA
-    smooth_overlap = ((sa > np.percentile(sa, 99)) & (sb > np.percentile(sb, 99))).mean() / 0.01
-    assert overlap < smooth_overlap
+def _top(lum: np.ndarray) -> np.ndarray:
+    return lum > np.percentile(lum, 99)
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> float:
+    """Share of ``a``'s brightest 1 % of pixels that are among ``b``'s brightest 1 %."""
+    mask_a = _top(a @ LUMA)
+    return float((mask_a & _top(b @ LUMA)).sum() / mask_a.sum())
+
+
+def test_glints_move_with_the_sun(renders, tmp_path):
+    """The brightest 1 % of pixels after a 2° turn of the sun: under half of them were among the
+    brightest before (26 % measured at 16 spp, 23 % at 64), against 63 % for the same sun and
+    another sampler seed (79 % at 64 spp: the noise floor). A 2° turn moves the half-vector 1°;
+    a block's light lies in speckle grains ~0.6° wide along the barbule (its 25 µm length
+    diffracting), not in one lobe as wide as a 5 µm rod's (2.4°, which kept 64 %)."""
+    overlap = _overlap(renders[1.0, 25.0][0], renders[1.0, 27.0][0])
+    assert overlap < 0.5, overlap
+    path = closeup_stage(tmp_path / "again.usda", 1.0, sun_deg=25.0)
+    again = render_stage(path, spp=SPP, progress=False, seed=7).rgb
+    repeat = _overlap(renders[1.0, 25.0][0], again)
+    assert overlap < 0.6 * repeat, (overlap, repeat)
+    assert overlap < _overlap(renders[0.0, 25.0][0], renders[0.0, 27.0][0])
+
+
+def test_barbs_glitter_in_their_own_coordinate(renders, tmp_path):
+    """The eye's ``barbs`` geometry (ribbons): glitter 1 glints as the sheet does (p99.9/median
+    26.6 against 2.42 at glitter 0, measured), at the same mean, and its blocks follow each barb's
+    own coordinate and id, not the sheet's feather uv: under 20 % of its brightest 1 % of pixels
+    are the sheet's (1.8 % measured)."""
+    barbs = {}
+    for glitter in (0.0, 1.0):
+        path = closeup_stage(tmp_path / f"barbs{glitter}.usda", glitter, geometry="barbs")
+        barbs[glitter] = render_stage(path, spp=SPP, progress=False).rgb
+    ratio_smooth, ratio_glitter = _glint_ratio(barbs[0.0]), _glint_ratio(barbs[1.0])
+    assert ratio_glitter >= 3.0 * ratio_smooth, (ratio_glitter, ratio_smooth)
+    mean_smooth, mean_glitter = ((barbs[g] @ LUMA).mean() for g in (0.0, 1.0))
+    assert abs(mean_glitter / mean_smooth - 1.0) < 0.05, (mean_glitter, mean_smooth)
+    assert _overlap(renders[1.0, 25.0][0], barbs[1.0]) < 0.2

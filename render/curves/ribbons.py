@@ -14,7 +14,9 @@ normals N′; every numeric primvar carried to the samples (``vertex``/``varying
 as vertex data, ``uniform`` per quad, ``constant`` as authored), so every shader that reads a
 primvar gets it (displayColor, displayOpacity, ``UsdPrimvarReader``, the feather's inputs); and
 the barb tangent T̂ as ``pavonine_barbTangent`` (unless the prim authors one), the direction the
-feather BSDF's barbule frame starts from. A ribbon has no inside: it is shaded on both sides.
+feather BSDF's barbule frame starts from, and the barb coordinate (length along the barb, place
+across it, barb id: ``pavonine_barbCoordinate``) its glitter blocks follow. A ribbon has no
+inside: it is shaded on both sides.
 """
 
 from __future__ import annotations
@@ -66,7 +68,9 @@ def ribbon_surface(
     points = np.stack([values["P"] - side * half, values["P"] + side * half], 1).reshape(-1, 3)
     a, b = samples.pairs[:, 0], samples.pairs[:, 1]
     quads = np.stack([2 * a, 2 * a + 1, 2 * b + 1, 2 * b], axis=1)
-    return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag)
+    # across the barb counter-clockwise seen from N′ is −S: P − S·w/2 at +w/2
+    across = (half * np.array([[1.0, -1.0]])).ravel()
+    return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag, across)
 
 
 def _normals(

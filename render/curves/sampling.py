@@ -25,11 +25,12 @@ from pavonine.render.curves.bases import (
     segment_windows,
 )
 from pavonine.render.diagnostics import Diagnostics
-from pavonine.render.mesh import Surface, make_topology
+from pavonine.render.mesh import BARB_COORDINATE, Surface, make_topology
 from pavonine.render.primvars import Primvar, read_primvars
 
 STEPS = 4  # spans per cubic segment
 BARB_TANGENT = "pavonine_barbTangent"  # the feather BSDF's barb direction (shading.feather)
+BARB_ID = "pavonine_barbId"  # uniform: the barb's id (docs/render.md, "Ribbons")
 WIDTHS = "widths"
 INTERPOLATIONS = ("constant", "uniform", "vertex", "varying", "faceVarying")
 _WHAT = {"uniform": "curves", "vertex": "points"}
@@ -99,10 +100,36 @@ def fits(
     return False
 
 
-def carried_primvars(samples: CurveSamples, per_sample: int, per_pair: int) -> dict[str, Primvar]:
+def barb_coordinates(samples: CurveSamples, across: np.ndarray) -> np.ndarray:
+    """``(V, 3)`` per vertex: arc length from the curve's first sample (chords between samples),
+    ``across`` (the vertex's place across the barb, counter-clockwise seen from its front) and
+    the barb's id (``primvars:pavonine_barbId`` if authored, else the curve's index): where the
+    feather BSDF finds a barb's barbules and blocks (:data:`BARB_COORDINATE`)."""
+    points = samples.values["P"]
+    step = np.concatenate([[0.0], np.linalg.norm(np.diff(points, axis=0), axis=1)])
+    starts = np.concatenate([[0], np.cumsum(samples.lengths)[:-1]]).astype(int)
+    step[starts] = 0.0
+    arc = np.cumsum(step)
+    arc -= np.repeat(arc[starts], samples.lengths)
+    if BARB_ID in samples.values:
+        barb = samples.values[BARB_ID][:, 0]
+    else:
+        barb = np.zeros(len(points))
+        barb[samples.pairs.ravel()] = np.repeat(samples.pair_curve, 2)
+    per_sample = len(across) // len(points)
+    sampled = np.stack([arc, np.zeros_like(arc), np.rint(barb)], axis=1)
+    out = np.repeat(sampled, per_sample, axis=0)
+    out[:, 1] = across
+    return out
+
+
+def carried_primvars(
+    samples: CurveSamples, per_sample: int, per_pair: int, across: np.ndarray | None = None
+) -> dict[str, Primvar]:
     """The sampled primvars for a mesh with ``per_sample`` vertices per sample (in sample order)
     and ``per_pair`` faces per strip piece: vertex data per vertex, ``uniform`` per face,
-    ``constant`` as authored; plus the unit tangent as :data:`BARB_TANGENT` unless authored."""
+    ``constant`` as authored; plus the unit tangent as :data:`BARB_TANGENT` unless authored, and
+    the barb coordinate (:func:`barb_coordinates`; ``across`` per vertex, 0 when not given)."""
     out: dict[str, Primvar] = {}
     for name, primvar in samples.data.items():
         if name in (WIDTHS, "normals"):
@@ -118,6 +145,9 @@ def carried_primvars(samples: CurveSamples, per_sample: int, per_pair: int) -> d
     if BARB_TANGENT not in out:
         tangents = np.repeat(samples.unit_tangents(), per_sample, axis=0)
         out[BARB_TANGENT] = Primvar(tangents, "vertex", "Vector")
+    if across is None:
+        across = np.zeros(len(samples.tangents) * per_sample)
+    out[BARB_COORDINATE] = Primvar(barb_coordinates(samples, across), "vertex")
     return out
 
 
@@ -128,12 +158,13 @@ def strip_surface(
     quads: np.ndarray,
     normals: np.ndarray,
     diag: Diagnostics,
+    across: np.ndarray | None = None,
 ) -> Surface | None:
     """The mesh built on ``samples``: ``points`` (the same number per sample, in sample order)
     joined by ``quads`` (the same number per strip piece, in piece order; each becomes two
     triangles, :func:`conditioned_triangles`), vertex ``normals``, the primvars carried
-    (:func:`carried_primvars`); shaded on both sides (ribbons have no inside, tube meshes open
-    ends)."""
+    (:func:`carried_primvars`, ``across`` per point); shaded on both sides (ribbons have no
+    inside, tube meshes open ends)."""
     per_sample = len(points) // len(samples.tangents)
     triangles = conditioned_triangles(points, quads)
     per_pair = len(triangles) // len(samples.pairs)
@@ -145,7 +176,7 @@ def strip_surface(
         prim,
         topology,
         normals=Primvar(normals, "vertex", "Normal"),
-        primvars=carried_primvars(samples, per_sample, per_pair),
+        primvars=carried_primvars(samples, per_sample, per_pair, across),
         double_sided=True,
     )
 

@@ -159,7 +159,12 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
         primvar = api.FindPrimvarWithInheritance(name)
         return bool(primvar) and primvar.HasValue()
 
-    core = dict(_feather_node(spec.bsdf))
+    from pavonine.render.feather_bsdf import BARB_COORDINATE_ATTRIBUTE
+    from pavonine.render.mesh import BARB_COORDINATE
+
+    core = dict(_feather_node(spec.bsdf), barb_coordinates=True)  # glitter follows the barbs
+    attributes = {**spec.attributes, BARB_COORDINATE: BARB_COORDINATE_ATTRIBUTE}
+    spec = replace(spec, attributes=attributes)
     if carried(FEATHER_UV) or carried(LEGACY_PRIMVARS[FEATHER_UV]):
         return replace(spec, key=f"{spec.key}#ribbon", bsdf=core, displacement=None)
     lacking = [
