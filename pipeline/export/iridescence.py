@@ -273,12 +273,24 @@ def fit_film(
     return FilmFit(base, weight, thickness, roughness, fitted)
 
 
-def fit_base(target, light, views, weight, thickness_nm, roughness, film_ior) -> FilmFit:
+def fit_base(
+    target, light, views, weight, thickness_nm, roughness, film_ior, chunk: int = 1 << 16
+) -> FilmFit:
     """The view-independent base that best completes a given film (``weight``,
     ``thickness_nm``, ``roughness`` per texel) to ``target`` ``(n, k, 3)``: the mean over the
-    views of what the film leaves, clipped to [0, 1] (least squares in linear RGB)."""
-    film = glTF_reflectance(
-        np.zeros((len(target), 3)), weight, thickness_nm, light, views, roughness, film_ior
-    )
+    views of what the film leaves, clipped to [0, 1] (least squares in linear RGB); ``chunk``
+    texels at a time (the film's temporaries are ``(chunk, k, 3)``)."""
+    film = np.empty_like(target, dtype=np.float64)
+    for start in range(0, len(target), chunk):
+        s = slice(start, start + chunk)
+        film[s] = glTF_reflectance(
+            np.zeros((len(film[s]), 3)),
+            weight[s],
+            thickness_nm[s],
+            light[s],
+            views[s],
+            roughness[s],
+            film_ior,
+        )
     base = np.clip((target - film).mean(axis=1), 0.0, 1.0)
     return FilmFit(base, weight, thickness_nm, roughness, film + base[:, None, :])
