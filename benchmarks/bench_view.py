@@ -1,5 +1,6 @@
 """``pavonine view``'s frame time: the page drawing the shipped eye at 1280×720 in headless
-Chromium with software WebGL (SwiftShader), milliseconds per frame.
+Chromium with software WebGL (SwiftShader), milliseconds per frame: the median of ``--frames``
+frames after two of warm-up, each drawn and read back (``window.pavonine.benchmark``).
 
 Yardstick, measured in the same run and page: the same meshes drawn in one unlit colour
 (``MeshBasicMaterial``: the rasterisation every viewer pays). Prints both and their ratio, for

@@ -59,8 +59,9 @@ REFERENCE_VIEW = np.array([0.0, 0.0, 1.0])
 WAVELENGTHS_NM = np.arange(380.0, 781.0, 10.0)
 #: Thin-film order whose peak is matched: 2 n t = (m + ½) λ.
 FILM_ORDER = 1
-#: Lanes (texels × wavelengths) per Dr.Jit evaluation.
-LANES = 1 << 24
+#: Lanes (texels × wavelengths) per Dr.Jit evaluation (2²² rather than 2²⁴: the glTF fit's
+#: 728k texels × 6 views, 22 s instead of 30 s CPU and 0.80 instead of 0.92 GB peak).
+LANES = 1 << 22
 #: Gradation steps of the NumPy fallback (texels are grouped by class and gradation step).
 FALLBACK_STEPS = 64
 

@@ -185,6 +185,63 @@ COSINES = np.linspace(0.0, 1.0, 65)
 ROUGHNESS_GRID = np.array([0.25, 0.35, 0.5, 0.7, 1.0])
 
 
+def _search_chunk(rho, light, views, table, far):
+    """The grid search of :func:`fit_film` for one chunk of texels: base, weight, thickness
+    index and roughness of the smallest error.
+
+    For thickness ``t`` and roughness ``r`` the film's term at view ``k`` is
+    ``s_k = I_k(t) L_k(r)`` (film Fresnel times lobe); ``w`` is the least-squares weight of the
+    views' deviations from their mean, ``b = clip(mean_k ρ_k − w mean_k s_k, 0, 1)`` and the
+    error ``Σ_k ((b + w s_k − ρ_k) u_k)²`` with ``u = 1 / (ρ + 0.02)``. Every sum over the views
+    is a contraction of the film table ``(m, T, k, 3)`` with per-texel weights, and the error is
+    expanded in them, so no ``(m, T, k, 3)`` temporary is made per roughness."""
+    film = np.moveaxis(_film_at(table, views[:, :, 2]), 1, 2)  # (m, T, k, 3)
+    film_sq = film * film
+    count = rho.shape[1]
+    mean_rho = rho.mean(axis=1)  # (m, 3)
+    d_rho = rho - mean_rho[:, None]
+    u2 = 1.0 / (rho + 0.02) ** 2  # (m, k, 3)
+    u2_sum = u2.sum(axis=1)  # (m, 3)
+    rho_u2 = (rho * u2).sum(axis=1)
+    rho2_u2 = (rho * rho * u2).sum(axis=1)
+    m = len(rho)
+    rows = np.arange(m)
+    best_error = np.full(m, np.inf)
+    base, weight, pick, roughness = np.zeros((m, 3)), np.zeros(m), np.zeros(m, int), np.zeros(m)
+    for r in ROUGHNESS_GRID:
+        lobe = ggx_lobe(light[:, None, :], views, np.full((m, 1), r))[..., None]  # (m, k, 1)
+
+        def over_views(table_, weights):
+            return np.einsum("mtkc,mkc->mtc", table_, np.broadcast_to(weights, rho.shape))
+
+        mean_spec = over_views(film, lobe) / count  # (m, T, 3)
+        spec2 = over_views(film_sq, lobe * lobe)  # Σ_k s²
+        cross = over_views(film, lobe * d_rho).sum(axis=2)  # Σ_k,c s d_rho
+        d_spec2 = (spec2 - count * mean_spec**2).sum(axis=2)  # Σ_k,c (s − mean s)²
+        w = np.clip(cross / np.maximum(d_spec2, 1e-12), 0.0, 1.0)  # (m, T)
+        b = np.clip(mean_rho[:, None] - w[..., None] * mean_spec, 0.0, 1.0)  # (m, T, 3)
+        s_u2 = over_views(film, lobe * u2)  # Σ_k s u²
+        rho_s_u2 = over_views(film, lobe * rho * u2)  # Σ_k ρ s u²
+        s2_u2 = over_views(film_sq, lobe * lobe * u2)  # Σ_k s² u²
+        wc = w[..., None]
+        error = (
+            b * b * u2_sum[:, None]
+            - 2.0 * b * rho_u2[:, None]
+            + rho2_u2[:, None]
+            + 2.0 * wc * (b * s_u2 - rho_s_u2)
+            + wc * wc * s2_u2
+        ).sum(axis=2)
+        if far is not None:
+            error = np.where(far, np.inf, error)
+        at = np.argmin(error, axis=1)
+        better = error[rows, at] < best_error
+        chosen = rows[better], at[better]
+        best_error[better] = error[chosen]
+        base[better], weight[better] = b[chosen], w[chosen]
+        pick[better], roughness[better] = at[better], r
+    return base, weight, pick, roughness
+
+
 def fit_film(
     target: np.ndarray,
     light: np.ndarray,
@@ -207,43 +264,33 @@ def fit_film(
     roughness = np.empty(n)
     for start in range(0, n, chunk):
         s = slice(start, min(n, start + chunk))
-        rho = target[s]  # (m, k, 3)
-        film = np.moveaxis(_film_at(table, views[s, :, 2]), 1, 2)  # (m, T, k, 3)
-        d_rho = (rho - rho.mean(axis=1, keepdims=True))[:, None]
-        rows = np.arange(len(rho))
-        best_error = np.full(len(rho), np.inf)
-        for r in ROUGHNESS_GRID:
-            lobe = ggx_lobe(light[s, None, :], views[s], np.full((len(rho), 1), r))  # (m, k)
-            spec = film * lobe[:, None, :, None]
-            d_spec = spec - spec.mean(axis=2, keepdims=True)
-            w = np.sum(d_spec * d_rho, axis=(2, 3)) / np.maximum(
-                np.sum(d_spec**2, axis=(2, 3)), 1e-12
-            )
-            w = np.clip(w, 0.0, 1.0)
-            b = np.clip((rho[:, None] - w[..., None, None] * spec).mean(axis=2), 0.0, 1.0)
-            model = b[:, :, None, :] + w[..., None, None] * spec
-            error = np.sum(((model - rho[:, None]) / (rho[:, None] + 0.02)) ** 2, axis=(2, 3))
-            if prior_nm is not None:
-                far = np.abs(grid[None, :] - prior_nm[s, None]) > window_nm
-                error = np.where(far, np.inf, error)
-            best = np.argmin(error, axis=1)
-            better = error[rows, best] < best_error
-            best_error = np.where(better, error[rows, best], best_error)
-            index = start + rows[better]
-            base[index] = b[rows, best][better]
-            weight[index] = w[rows, best][better]
-            thickness[index] = grid[best][better]
-            roughness[index] = r
+        far = None
+        if prior_nm is not None:
+            far = np.abs(grid[None, :] - prior_nm[s, None]) > window_nm
+        b, w, pick, r = _search_chunk(target[s], light[s], views[s], table, far)
+        base[s], weight[s], thickness[s], roughness[s] = b, w, grid[pick], r
     fitted = glTF_reflectance(base, weight, thickness, light, views, roughness, film_ior)
     return FilmFit(base, weight, thickness, roughness, fitted)
 
 
-def fit_base(target, light, views, weight, thickness_nm, roughness, film_ior) -> FilmFit:
+def fit_base(
+    target, light, views, weight, thickness_nm, roughness, film_ior, chunk: int = 1 << 16
+) -> FilmFit:
     """The view-independent base that best completes a given film (``weight``,
     ``thickness_nm``, ``roughness`` per texel) to ``target`` ``(n, k, 3)``: the mean over the
-    views of what the film leaves, clipped to [0, 1] (least squares in linear RGB)."""
-    film = glTF_reflectance(
-        np.zeros((len(target), 3)), weight, thickness_nm, light, views, roughness, film_ior
-    )
+    views of what the film leaves, clipped to [0, 1] (least squares in linear RGB); ``chunk``
+    texels at a time (the film's temporaries are ``(chunk, k, 3)``)."""
+    film = np.empty_like(target, dtype=np.float64)
+    for start in range(0, len(target), chunk):
+        s = slice(start, start + chunk)
+        film[s] = glTF_reflectance(
+            np.zeros((len(film[s]), 3)),
+            weight[s],
+            thickness_nm[s],
+            light[s],
+            views[s],
+            roughness[s],
+            film_ior,
+        )
     base = np.clip((target - film).mean(axis=1), 0.0, 1.0)
     return FilmFit(base, weight, thickness_nm, roughness, film + base[:, None, :])

@@ -87,18 +87,42 @@ def _best_index(target, light, views, baked_ior: float) -> float:
     return min(errors, key=errors.get)
 
 
-def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> FittedLook:
-    """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
-    ``st`` atlas rasterised at ``resolution``); ``film_ior``: the bake's mean film index, the
-    first candidate for the film's."""
+@dataclass
+class LookTargets:
+    """What the fit matches, per covered texel of the atlas (``texels``): the model's
+    reflectance factors ``target`` ``(n, len(VIEWS), 3)`` (clipped at 0), the reference
+    ``light`` ``(n, 3)`` and ``views`` ``(n, len(VIEWS), 3)`` in each texel's frame, and the
+    texels' ``inputs`` (:func:`~pavonine.pipeline.bake.appearance.reflectance_at_views`)."""
+
+    texels: object
+    target: np.ndarray
+    light: np.ndarray
+    views: np.ndarray
+    inputs: dict
+
+
+def look_targets(material, meshes: list, resolution: int) -> LookTargets:
+    """The model's reflectance over the atlas of the meshes bound to the feather ``material``
+    (merged, their ``st`` atlas rasterised at ``resolution``) at the reference light and
+    :data:`~pavonine.pipeline.export.iridescence.VIEWS`."""
     params, maps, _ = feather_inputs(material)
     vane = merge([mesh_data(prim) for prim in meshes])
     texels = surface_texels(vane, resolution)
     target, inputs = reflectance_at_views(texels, maps, params, REFERENCE_LIGHT, VIEWS)
-    target = np.clip(target, 0.0, None)  # the gamut a viewer can show
     frames = inputs["frames"]
     light = frames @ REFERENCE_LIGHT
     views = np.einsum("nij,kj->nki", frames, VIEWS)
+    # clipped at 0: the gamut a viewer can show
+    return LookTargets(texels, np.clip(target, 0.0, None), light, views, inputs)
+
+
+def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> FittedLook:
+    """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
+    ``st`` atlas rasterised at ``resolution``); ``film_ior``: the bake's mean film index, the
+    first candidate for the film's."""
+    found = look_targets(material, meshes, resolution)
+    texels, target, light, views = found.texels, found.target, found.light, found.views
+    inputs = found.inputs
     step = max(1, resolution // FIT_RESOLUTION)
     subset, nearest_fit = _searched(texels, step)
     film_ior = _best_index(target[subset], light[subset], views[subset], film_ior)

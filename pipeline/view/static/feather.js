@@ -61,6 +61,12 @@ uniform float classes, gradations, thetaSteps, slopeSteps, layers, slopeMax, alp
 uniform vec3 melaninRgb;
 const float FADE_T2 = 0.011054; // tan(6 deg)^2, brdf.ORIENTATION_FADE_DEG
 
+float acosFast(float x) {
+  // acos on [0, 1] by Abramowitz & Stegun 4.4.45 (|error| <= 6.7e-5 rad, a 400th of a table
+  // step), cheaper than acos in software WebGL
+  return sqrt(1.0 - x) * (1.5707288 + x * (-0.2121144 + x * (0.0742610 - 0.0187293 * x)));
+}
+
 float smithG1(vec3 w, float hdotw) {
   // Beckmann Smith G1 by Walter et al. 2007's rational fit (Eq. 27), tables.smith_g1_walter
   if (hdotw * w.z <= 0.0 || w.z <= 0.0) return 0.0;
@@ -81,7 +87,7 @@ vec3 structural(vec3 wi, vec3 wo, float k, float t) {
   if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
   vec3 h = normalize(wi + wo);
   float cosD = clamp(dot(wi, h), 0.0, 1.0);
-  float thetaD = acos(cosD);
+  float thetaD = acosFast(cosD);
   float sx = abs(h.x / h.z), sy = h.y / h.z;
 #ifdef SHARED_AXES
   vec3 r = spectral(k, t, 0.0, thetaD, sx);
@@ -109,14 +115,14 @@ void main() {
   vec3 radiance;
   float alpha = 1.0;
 #ifdef FEATHER
+  vec4 maps = texture(packedMaps, vUv);
+  if (maps.a < 0.004) discard;  // the gaps between barbs: nothing to shade
   float grey = texture(ocellarMap, vUv).r;
   float k = clamp(floor((1.0 - grey) * (classes - 1.0) + 0.5), 0.0, classes - 1.0);
-  vec4 maps = texture(packedMaps, vUv);
   // per-instance primvars as feather_bsdf.py applies them: t + offset, share × scale, clipped
   float t = clamp(maps.r + vFeather.x, 0.0, 1.0), turn = maps.g * PI;
   float share = clamp(maps.b * vFeather.y, 0.0, 1.0);
   alpha = maps.a;
-  if (alpha < 0.004) discard;  // the gaps between barbs: nothing to shade
   // The barbule's long axis: the barb direction turned by the angle map about the normal
   // (counter-clockwise seen from the front), as feather_bsdf.py reads it.
   vec3 b = vBarb - n * dot(vBarb, n);
@@ -129,7 +135,7 @@ void main() {
   vec3 wo = vec3(dot(l, x), dot(l, y), dot(l, n));
   vec3 f = share * structural(wi, wo, k, t) + (1.0 - share) * melaninRgb / PI;
   radiance = f * sunIrradiance * max(wo.z, 0.0);
-  float viewAngle = acos(clamp(wi.z, 0.0, 1.0)) / radians(89.0);
+  float viewAngle = acosFast(clamp(wi.z, 0.0, 1.0)) / radians(89.0);
   vec2 at = vec2((min(viewAngle, 1.0) * (albedoSteps - 1.0) + 0.5) / albedoSteps,
                  (k * gradations + clamp(t, 0.0, 1.0) * (gradations - 1.0) + 0.5)
                      / (classes * gradations));
@@ -187,11 +193,17 @@ export function packMaps(images) {
   return texture;
 }
 
+/** Half floats as 32-bit floats: software WebGL (SwiftShader) filters float textures about a
+ * quarter faster than half-float ones (benchmarks/bench_view.py), for twice the memory. */
+function singles(buffer) {
+  return Float32Array.from(new Uint16Array(buffer), THREE.DataUtils.fromHalfFloat);
+}
+
 /** The 2D texture of a table's sky albedo (RGBA half floats from /api/<key>/albedo/<i>.bin). */
 export function albedoTexture(buffer, meta) {
   const texture = new THREE.DataTexture(
-    new Uint16Array(buffer), meta.albedoSteps, meta.classes * meta.gradations, THREE.RGBAFormat,
-    THREE.HalfFloatType);
+    singles(buffer), meta.albedoSteps, meta.classes * meta.gradations, THREE.RGBAFormat,
+    THREE.FloatType);
   texture.minFilter = texture.magFilter = THREE.LinearFilter;
   texture.wrapS = texture.wrapT = THREE.ClampToEdgeWrapping;
   texture.needsUpdate = true;
@@ -202,8 +214,8 @@ export function albedoTexture(buffer, meta) {
 export function brdfTexture(buffer, meta) {
   const depth = meta.axes * meta.classes * meta.gradations;
   const texture = new THREE.Data3DTexture(
-    new Uint16Array(buffer), meta.slopeSteps, meta.thetaSteps, depth);
-  texture.type = THREE.HalfFloatType;
+    singles(buffer), meta.slopeSteps, meta.thetaSteps, depth);
+  texture.type = THREE.FloatType;
   texture.format = THREE.RGBAFormat;
   texture.minFilter = texture.magFilter = THREE.LinearFilter;
   texture.wrapS = texture.wrapT = texture.wrapR = THREE.ClampToEdgeWrapping;
