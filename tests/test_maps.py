@@ -147,6 +147,33 @@ def test_png_round_trip_is_16_bit_raw_and_exr_is_tagged(tmp_path):
     assert np.max(np.abs(read_map(tmp_path / "m.exr", "maps.test") - values)) < 1e-3
 
 
+@pytest.mark.parametrize("basetype, levels", [(oiio.UINT8, 256), (oiio.UINT16, 65536)])
+def test_every_integer_grey_level_reads_as_openimageio_converts_it(tmp_path, basetype, levels):
+    """read_map decodes one grey channel as stored and scales it itself: for every level the
+    value is OpenImageIO's own conversion to float, bit for bit."""
+    stored = np.arange(levels, dtype=np.uint8 if levels == 256 else np.uint16).reshape(-1, 256)
+    path = tmp_path / "levels.png"
+    spec = oiio.ImageSpec(stored.shape[1], stored.shape[0], 1, basetype)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec) and out.write_image(stored[..., None]) and out.close()
+    image = oiio.ImageInput.open(str(path))
+    library = image.read_image(0, 0, 0, 1, oiio.FLOAT)[..., 0]
+    image.close()
+    assert np.array_equal(read_map(path, "maps.test"), library)
+
+
+def test_fast_png_holds_the_same_pixels(tmp_path):
+    """write_map(fast=True), the asset's copies of the maps: other bytes, the same pixels."""
+    rng = np.random.default_rng(3)
+    values = np.cumsum(rng.normal(0, 0.01, (64, 48)), axis=1).clip(0, 1).astype(np.float32)
+    write_map(tmp_path / "default.png", values)
+    write_map(tmp_path / "fast.png", values, fast=True)
+    assert (tmp_path / "default.png").read_bytes() != (tmp_path / "fast.png").read_bytes()
+    assert np.array_equal(
+        read_map(tmp_path / "default.png", "a"), read_map(tmp_path / "fast.png", "b")
+    )
+
+
 def test_sample_bilinear_puts_v0_at_the_bottom_row():
     image = np.zeros((4, 2), np.float32)
     image[-1, :] = 1.0  # bottom row

@@ -313,13 +313,14 @@ def write_maps(maps: Mapping[str, DataMap], folder: Path) -> dict[str, str]:
 
     The asset holds exactly the values the geometry was built from, so every reader (renderer,
     validator, DCC) sees one channel whatever the source file had: 16-bit PNG, or half-float
-    EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.maps.io.write_map`).
+    EXR for float sources, tagged ``Raw`` (:func:`pavonine.pipeline.maps.io.write_map`; PNG
+    compressed for speed, :data:`~pavonine.pipeline.maps.io.FAST_PNG`: maps can be big).
     """
     out = map_paths(maps)
 
     def write(key: str) -> None:
         description = f"pavonine {key} map (paper section 3.3)"
-        write_map(folder / out[key][2:], maps[key].values, description=description)
+        write_map(folder / out[key][2:], maps[key].values, description=description, fast=True)
 
     in_threads(write, list(maps))
     return out

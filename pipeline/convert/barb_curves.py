@@ -45,7 +45,7 @@ from pavonine.materials.ocellus import smooth_class_field
 from pavonine.pipeline.convert.barbs import sample_direction
 from pavonine.pipeline.convert.rachis import RachisSpec, rachis_radius
 from pavonine.pipeline.convert.recipe import BarbOptions
-from pavonine.pipeline.convert.surface import FeatherFrame, normalise
+from pavonine.pipeline.convert.surface import FeatherFrame, gaussian_blur, normalise
 from pavonine.pipeline.maps.io import sample_bilinear, sample_nearest
 from pavonine.pipeline.maps.paint import angle_degrees, ocellar_class
 
@@ -320,7 +320,7 @@ def build_barbs(
     local = neighbour_spacing(xy, tangent2, barb, MAX_WIDTH_SPACINGS * spacing, rachis_barb[barb])
     widths = local * frame.length * layout.width_share * cover
     normal = frame.normal(uv)
-    smooth = ndimage.gaussian_filter(maps["displacement"], 0.5 * spacing * height)
+    smooth = gaussian_blur(maps["displacement"], 0.5 * spacing * height)
     lift = displacement_cm * sample_bilinear(smooth, uv)
     points = frame.position(uv) + lift[:, None] * normal
     dpdu, dpdv = frame.derivatives(uv)

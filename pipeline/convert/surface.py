@@ -86,24 +86,30 @@ def prefilter(values: np.ndarray, spacing_uv: float, wrap: str = "clamp") -> np.
     """Low-pass a map to a mesh whose vertices are ``spacing_uv`` (feather v units) apart,
     so displacement sampled at vertices does not alias (Gaussian, σ = ½ vertex spacing).
     ``wrap``: how the map continues beyond its edges (:data:`~pavonine.pipeline.maps.io.FILTER_MODES`).
-
-    A wide blur (σ ≥ 2 · :data:`REDUCED_SIGMA` texels: a coarse mesh on a big map) is done on the
-    map box-reduced by the largest power of two ``f ≤ σ / REDUCED_SIGMA`` (same extent, fewer
-    texels) with ``σ' = √(σ² − (f² − 1)/12) / f``, the box's own variance taken off: the same
-    blur within a fraction of a texel for ``f²`` times less work. The result is then smaller
+    A wide blur is done on a reduced map (:func:`gaussian_blur`): the result may then be smaller
     than ``values``; sample it by feather coordinates (:func:`sample_bilinear`)."""
-    from pavonine.pipeline.maps.io import area_reduce
-
     sigma = 0.5 * spacing_uv * values.shape[0]
     if sigma < 0.5:
         return values
+    return gaussian_blur(values, sigma, FILTER_MODES[wrap])
+
+
+def gaussian_blur(values: np.ndarray, sigma: float, mode: str = "reflect") -> np.ndarray:
+    """``ndimage.gaussian_filter(values, sigma, mode=mode)``, of the same extent but possibly
+    fewer texels: a wide blur (σ ≥ 2 · :data:`REDUCED_SIGMA` texels: a coarse mesh, or a barb
+    spacing, on a big map) is done on the map box-reduced by the largest power of two
+    ``f ≤ σ / REDUCED_SIGMA`` with ``σ' = √(σ² − (f² − 1)/12) / f``, the box's own variance taken
+    off: the same blur within a fraction of a texel for ``f³`` times less work (``f²`` fewer
+    texels, ``f`` times fewer taps each). Sample the result by feather coordinates."""
+    from pavonine.pipeline.maps.io import area_reduce
+
     factor = 1
     while factor * 2 <= sigma / REDUCED_SIGMA and min(values.shape[:2]) // (factor * 2) >= 8:
         factor *= 2
     if factor > 1:
         values = area_reduce(values, factor)
         sigma = math.sqrt(sigma**2 - (factor**2 - 1) / 12.0) / factor
-    return ndimage.gaussian_filter(values, sigma, mode=FILTER_MODES[wrap])
+    return ndimage.gaussian_filter(values, sigma, mode=mode)
 
 
 def displacement_heights(

@@ -130,11 +130,14 @@ def base_vane(
     if cover <= 0.0:
         raise ValueError("alpha map is fully transparent")
     pitch = math.sqrt(target_triangles / (2.0 * aspect * max(cover, 1e-3)))
+    reduced: dict[int, np.ndarray] = {}  # by factor: the corrected pitch often keeps it
     for _ in range(3):  # the first pitch is an estimate; correct it by the count it gave
         rows = max(4, round(pitch)) + 1
         cols = max(4, round((rows - 1) * aspect)) + 1
         factor = max(1, int(height / (rows - 1) / 2))
-        filtered = area_reduce(alpha, factor)
+        if factor not in reduced:
+            reduced[factor] = area_reduce(alpha, factor)
+        filtered = reduced[factor]
         uv, faces = grid_mesh(rows, cols)
         level = sample_bilinear(filtered, uv).astype(np.float64) - threshold
         uv, faces = clip_to_silhouette(uv, faces, level)
