@@ -23,8 +23,10 @@ lint: $(STAMP)
 	$(BIN)/python -m ruff format --check .
 
 # The environment's bin first: wheels bring command-line tools the tests run (mxvalidate, oiiotool).
+# One pytest worker per core (pytest-xdist), each test file on one worker so its module fixtures
+# are built once.
 test: lint
-	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest --numprocesses=auto --dist=loadfile
 
 # Re-pin constraints.txt to the versions installed in .venv (after changing a dependency).
 lock: $(STAMP)
