@@ -380,12 +380,7 @@ def _plugin_class(variant: str):
                 local, linear = self._instance_local(si, active)
                 c = mi.Vector3f(si.shape.eval_attribute_3(BARB_COORDINATE_ATTRIBUTE, local, active))
                 if linear is not None:  # an instance's own scale (mean of its linear part)
-                    det = (
-                        linear[0] * (linear[4] * linear[8] - linear[5] * linear[7])
-                        - linear[1] * (linear[3] * linear[8] - linear[5] * linear[6])
-                        + linear[2] * (linear[3] * linear[7] - linear[4] * linear[6])
-                    )
-                    scale = scale * dr.cbrt(dr.abs(det))
+                    scale = scale * dr.cbrt(dr.abs(dr.det(mi.Matrix3f(*linear))))
                 u_um, v_um = c.x * scale, c.y * scale
                 barb = ops.to_uint32(dr.round(c.z))
             else:
