@@ -230,6 +230,25 @@ def test_shifted_beckmann_is_normalised_and_centred_on_the_block():
     assert -hx[peak] / hz[peak] == pytest.approx(0.2, abs=2e-3)
 
 
+def test_block_ndf_is_the_weighted_sum_of_its_grains_shifted_beckmann_lobes():
+    """``block_ndf`` computes the factors its grains share once; it must stay ``Σ_k w_k D_k``
+    with ``D_k`` the shifted Beckmann lobe of :func:`barbule.shifted_beckmann_ndf` at
+    ``tilt + z_k · speckle`` (one definition of the lobe, a fast form of it)."""
+    rng = np.random.default_rng(5)
+    h = rng.normal(size=(2000, 3))
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    hx, hy, hz = h.T  # half of them below the vane: both forms are 0 there
+    block = glitter.block_state(1.0, math.radians(8.0), 3, 7, 11, 5, NUMPY)
+    speckle, alpha_x, alpha_y = 0.03, 0.012, 0.35
+    fast = glitter.block_ndf(hx, hy, hz, alpha_x, alpha_y, block, speckle, NUMPY)
+    reference = sum(
+        w * barbule.shifted_beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, block.tilt + z * speckle)
+        for z, w in zip(block.grains, block.weights, strict=True)
+    )
+    assert np.any(reference > 1.0) and np.any(hz <= 0.0)
+    np.testing.assert_allclose(fast, reference, rtol=1e-12, atol=1e-300)
+
+
 def test_glitter_parameters_are_checked():
     for changes, field in (
         ({"glitter": 1.5}, "glitter"),
