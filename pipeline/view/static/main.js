@@ -219,8 +219,9 @@ window.pavonine = {
   frameTimes: [],
   benchmark(frames = 20, flat = false, warmup = 2) {
     // The median time of a frame (drawn and read back, so the GPU has finished it) after
-    // `warmup` frames (all of them, sorted, in frameTimes), the camera turning a little each frame. flat: the yardstick, the same
-    // meshes in one unlit colour (what any viewer pays).
+    // `warmup` frames, the camera turning a little each frame; every timed frame, sorted, is
+    // left in frameTimes. flat: the yardstick, the same meshes in one unlit colour (what any
+    // viewer pays).
     const saved = world.overrideMaterial;
     if (flat) world.overrideMaterial = new THREE.MeshBasicMaterial({ color: 0x808080, side: THREE.DoubleSide });
     const gl = renderer.getContext();
