@@ -1,7 +1,7 @@
 """``pavonine export``: a glTF 2.0 binary that the Khronos glTF validator (npm
 ``gltf-validator``, run by ``.ci/gltf_validate.mjs``) accepts with no errors, carrying the baked
-look: base colour + alpha MASK, ``KHR_materials_iridescence`` with its thickness texture and
-``KHR_materials_specular`` 0 (the fitted look of pipeline/export/look.py)."""
+look: base colour + alpha MASK, ``KHR_materials_iridescence`` with its thickness texture over a
+``KHR_materials_specular`` substrate colour (the fitted look of pipeline/export/look.py)."""
 
 from __future__ import annotations
 
@@ -15,6 +15,8 @@ import pytest
 from click.testing import CliRunner
 
 from pavonine.pipeline.cli import cli
+from pavonine.pipeline.export import iridescence as irid
+from pavonine.pipeline.export import look
 
 CI = Path(__file__).resolve().parents[1] / ".ci"
 VALIDATOR = CI / "node_modules" / "gltf-validator"
@@ -62,12 +64,15 @@ def test_glb_carries_the_baked_feather(glb, eye_asset, tmp_path):
     feather, rachis = materials["Feather"], materials["Rachis"]
     assert feather.alphaMode == "MASK" and feather.alphaCutoff == pytest.approx(0.5)
     assert feather.doubleSided and feather.pbrMetallicRoughness.metallicFactor == 0.0
-    # No dielectric specular on top of the fitted film (glTF's default F0 = 0.04 would add one).
-    assert feather.extensions["KHR_materials_specular"] == {"specularFactor": 0.0}
+    # The film's substrate: KHR_materials_specular's colour, F0 over [0, SUBSTRATE_F0_MAX].
+    specular = feather.extensions["KHR_materials_specular"]
+    assert specular["specularFactor"] == 1.0
+    assert specular["specularColorFactor"] == [irid.SUBSTRATE_F0_MAX / 0.04] * 3
+    substrate = _image(doc, specular["specularColorTexture"]["index"], tmp_path)[..., :3]
     iridescence = feather.extensions["KHR_materials_iridescence"]
     assert iridescence["iridescenceThicknessMinimum"] == 0.0
     assert iridescence["iridescenceThicknessMaximum"] == 1000.0
-    assert 1.3 < iridescence["iridescenceIor"] < 2.2  # the fit's pick (pipeline/export/look.py)
+    assert iridescence["iridescenceIor"] in look.IOR_CANDIDATES  # the fit's pick
     # The fitted look (pipeline/export/look.py): the base holds what the film does not, so it is
     # darker than the bake's whole-colour base; the film has weight and thickness in the vane.
     base = _image(doc, feather.pbrMetallicRoughness.baseColorTexture.index, tmp_path)
@@ -84,6 +89,14 @@ def test_glb_carries_the_baked_feather(glb, eye_asset, tmp_path):
     assert film[opaque][:, 0].mean() > 0.3  # R: the film's weight
     assert 0.1 < np.median(film[opaque][:, 1]) < 0.9  # G: thickness over [0, 1000] nm
     assert np.ptp(film[opaque][:, 1]) > 0.1  # it varies over the feather
+    # The substrate is coloured (channels chosen apart) and varies over the feather.
+    assert np.ptp(substrate[opaque], axis=0).min() > 0.2
+    assert np.mean(np.ptp(substrate[opaque], axis=1) > 0.05) > 0.1
+    # The film's texture has no mipmaps (a mean thickness draws another colour); the others do.
+    sampler = doc.samplers[doc.textures[iridescence["iridescenceTexture"]["index"]].sampler]
+    assert sampler.minFilter == pygltflib.LINEAR
+    base_sampler = doc.textures[feather.pbrMetallicRoughness.baseColorTexture.index].sampler
+    assert doc.samplers[base_sampler].minFilter == pygltflib.LINEAR_MIPMAP_LINEAR
     assert rachis.alphaMode == "OPAQUE" and len(rachis.pbrMetallicRoughness.baseColorFactor) == 4
 
 

@@ -48,20 +48,70 @@ def test_ggx_lobe_in_closed_form_at_the_mirror_configuration():
         assert lobe[0] == pytest.approx(1.0 / (4.0 * alpha**2), rel=1e-6)
 
 
+@pytest.mark.parametrize("thickness", [200.0, 450.0])
+@pytest.mark.parametrize("n_substrate", [1.2, 2.4])
+def test_film_over_a_substrate_is_the_airy_sum_seen_in_rec709(thickness, n_substrate):
+    """A film of index 1.56 on a substrate of index ``n_substrate`` (given as its F0 in air, as
+    the extension derives the index back from it): against the exact Airy reflectance, lower
+    and higher than the film (phase shift π and 0 at the base)."""
+    wavelengths = np.arange(360.0, 831.0, 1.0)
+    spectrum = thin_film_reflectance(wavelengths, thickness, 1.56, n_substrate)
+    cmf = colour.cmfs(wavelengths)
+    exact = (spectrum @ cmf / cmf[:, 1].sum()) @ irid.XYZ_TO_REC709.T
+    f0 = ((n_substrate - 1.0) / (n_substrate + 1.0)) ** 2
+    fitted = irid.film_fresnel(np.array(1.0), 1.56, np.array(thickness), np.full(3, f0))
+    assert np.max(np.abs(fitted - exact)) < 0.04, (fitted, exact)
+    assert np.ptp(exact) > 0.03  # coloured
+    # Per channel, on one side of the film's index (the search relies on it): each channel of a
+    # mixed substrate is that channel of its own uniform one.
+    other = 0.3 if f0 > 0.05 else 0.02  # the film's own F0 is 0.048
+    mixed = irid.film_fresnel(np.array(0.8), 1.56, np.array(thickness), np.array([f0, f0, other]))
+    alone = irid.film_fresnel(np.array(0.8), 1.56, np.array(thickness), np.full(3, f0))
+    assert np.allclose(mixed[:2], alone[:2]) and not np.isclose(mixed[2], alone[2])
+
+
+@pytest.mark.parametrize("roughness", [0.35, 0.7, 1.0])
+def test_specular_albedo_against_a_quadrature_over_light_directions(roughness):
+    """The lobe's white-furnace albedo (importance sampled over half vectors) against a plain
+    midpoint quadrature of ∫ D V (n·l) dω_l over the hemisphere of light directions."""
+    theta = (np.arange(400) + 0.5) * (np.pi / 2) / 400
+    phi = (np.arange(400) + 0.5) * (2 * np.pi) / 400
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    light = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1).reshape(-1, 3)
+    solid = (np.sin(t) * (np.pi / 2 / 400) * (2 * np.pi / 400)).ravel()
+    for cos_view in (1.0, 0.6, 0.25):
+        view = np.array([np.sqrt(1 - cos_view**2), 0.0, cos_view])
+        lobe = irid.ggx_lobe(
+            light, np.broadcast_to(view, light.shape), np.full(len(light), roughness)
+        )
+        quadrature = np.sum(lobe / np.pi * light[:, 2] * solid)  # ggx_lobe is π D V
+        sampled = irid.specular_albedo(np.array([roughness]), np.array([cos_view]))[0]
+        assert sampled == pytest.approx(quadrature, rel=0.01), (cos_view, sampled, quadrature)
+        assert 0.3 < sampled <= 1.0
+
+
 def test_fit_recovers_a_film_it_was_given():
     rng = np.random.default_rng(3)
     n = 40
     light = np.tile(irid.tilted_views([25.0]), (n, 1))
     views = np.tile(irid.VIEWS[None], (n, 1, 1))
     base = rng.uniform(0.0, 0.3, (n, 3))
-    weight = rng.uniform(0.5, 1.0, n)
-    thickness = rng.choice(np.arange(200.0, 800.0, irid.THICKNESS_STEP_NM), n)
+    weight = rng.choice(irid.WEIGHT_GRID, n)
+    thickness = rng.choice(np.arange(200.0, 800.0, irid.FREE_STEP_NM), n)
     roughness = rng.choice(irid.ROUGHNESS_GRID[:4], n)
-    target = irid.glTF_reflectance(base, weight, thickness, light, views, roughness, 1.6)
-    fit = irid.fit_film(target, light, views, 1.6)
+    _, above = irid.substrate_grid(1.56)
+    substrate = rng.choice(above, (n, 3))
+    substrate[: n // 2] = 0.0  # half free-standing films
+    target = irid.glTF_reflectance(
+        base, weight, thickness, light, views, roughness, 1.56, substrate
+    )
+    fit = irid.fit_film(target, light, views, 1.56)
     assert np.max(np.abs(fit.reflectance - target)) < 0.01
     assert np.mean(np.abs(fit.thickness_nm - thickness) < 1.0) > 0.9
-    near = irid.fit_film(target, light, views, 1.6, prior_nm=thickness + 20.0)
+    assert np.mean(np.all(fit.substrate == substrate, axis=1)) > 0.9
+    near = irid.fit_film(target, light, views, 1.56, prior_nm=thickness + 20.0)
     assert np.all(np.abs(near.thickness_nm - thickness - 20.0) <= 30.0)
-    again = irid.fit_base(target, light, views, fit.weight, fit.thickness_nm, fit.roughness, 1.6)
+    again = irid.fit_base(
+        target, light, views, fit.weight, fit.thickness_nm, fit.roughness, 1.56, fit.substrate
+    )
     assert np.allclose(again.base, fit.base, atol=0.01)

@@ -4,13 +4,11 @@ face-on and tilted (``pipeline.export.iridescence.TILT_DEG`` about the feather's
 per ocellus zone (tests/ocellus_zones.py), CIE ΔE2000 of the mean colours, the render taken as a
 display shows it (negative, out-of-gamut components clipped, as ``pavonine render --png`` does).
 
-The issue asks for every zone within ΔE 5. Measured (docs/pipeline.md, *glTF export*) the fitted
-film reaches that in most zones and views but not all: the worst zone is under 8, the mean over
-zones under 5 in each view. Those are the bounds asserted here, so the test catches a regression
-of the look; where the remaining error comes from is in the docs.
+Every zone within ΔE 5, as the issue asks (measured: docs/pipeline.md, *glTF export*).
 
 And three.js draws what ``pipeline/export/iridescence.py`` says it draws (the model the fit
-inverts): a flat quad of one material, within 1 %.
+inverts): a flat quad of one material, free-standing film or over a coloured substrate, within
+1 %.
 
     pytest tests/test_gltf_threejs.py -s   # prints the zone tables
 """
@@ -35,9 +33,8 @@ SPP = 32
 #: The zones the issue names: the heart, the three rings, the vane (class 0, a sliver below the
 #: eye in this view, is printed but not held to the bounds).
 ZONES = (5, 4, 3, 2, 1)
-#: Per zone (the issue's 5 is not reached in every zone; see the module docstring) and the mean.
-MAX_DELTA_E = 8.0
-MAX_MEAN_DELTA_E = 5.0
+#: Per zone, the issue's bound.
+MAX_DELTA_E = 5.0
 #: The shipped scene's sun: from the right, 25° off the vane normal; E = π.
 SUN = [math.sin(math.radians(25.0)), 0.0, math.cos(math.radians(25.0))]
 
@@ -67,7 +64,7 @@ def _view(tilt_deg: float, camera: tuple[float, float, float], **extra) -> dict:
     }
 
 
-def _quad(path: Path, base, weight, thickness, roughness, ior) -> None:
+def _quad(path: Path, base, weight, thickness, roughness, ior, substrate) -> None:
     import pygltflib as gl
 
     points = np.array([[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]])
@@ -101,7 +98,10 @@ def _quad(path: Path, base, weight, thickness, roughness, ior) -> None:
             ),
             extensions={
                 "KHR_materials_iridescence": film,
-                "KHR_materials_specular": {"specularFactor": 0.0},
+                "KHR_materials_specular": {
+                    "specularFactor": 1.0,
+                    "specularColorFactor": [float(f) / 0.04 for f in substrate],
+                },
             },
         )
     ]
@@ -114,15 +114,21 @@ def _quad(path: Path, base, weight, thickness, roughness, ior) -> None:
 
 
 @pytest.mark.parametrize(
-    ("weight", "thickness", "roughness"), [(1.0, 400.0, 0.4), (0.8, 550.0, 0.6), (1.0, 300.0, 0.3)]
+    ("weight", "thickness", "roughness", "substrate"),
+    [
+        (1.0, 400.0, 0.4, (0.0, 0.0, 0.0)),
+        (0.8, 550.0, 0.6, (0.0, 0.0, 0.0)),
+        (1.0, 300.0, 0.3, (0.2, 0.3, 0.1)),
+        (0.5, 250.0, 0.5, (0.35, 0.12, 0.45)),
+    ],
 )
-def test_threejs_draws_the_model_the_fit_inverts(tmp_path, weight, thickness, roughness):
+def test_threejs_draws_the_model_the_fit_inverts(tmp_path, weight, thickness, roughness, substrate):
     base = np.array([0.1, 0.2, 0.05])
-    _quad(tmp_path / "quad.glb", base, weight, thickness, roughness, 1.6)
+    _quad(tmp_path / "quad.glb", base, weight, thickness, roughness, 1.56, substrate)
     light = np.array([SUN])
     views = irid.tilted_views([0.0, irid.TILT_DEG])
     expected = irid.glTF_reflectance(
-        base[None], [weight], [thickness], light, views[None], [roughness], 1.6
+        base[None], [weight], [thickness], light, views[None], [roughness], 1.56, [substrate]
     )[0]
     for k, tilt in enumerate((0.0, irid.TILT_DEG)):
         view = _view(tilt, (0.0, 0.0, 1.0), resolution=[16, 16], fov_deg=1.0, near=0.1, far=10.0)
@@ -201,8 +207,7 @@ def test_exported_glb_in_threejs_matches_the_render_face_on_and_tilted(eye_asset
             print(f"{ZONE_NAMES[k]:>16}  {int(masks[k].sum()):>6}  {de:6.2f}")
     for tilt, (delta_e, _) in drawn.items():
         assert set(delta_e) >= set(ZONES), (tilt, sorted(delta_e))
-        issue = [delta_e[k] for k in ZONES]
-        assert max(issue) <= MAX_DELTA_E and np.mean(issue) <= MAX_MEAN_DELTA_E, (tilt, delta_e)
+        assert max(delta_e[k] for k in ZONES) <= MAX_DELTA_E, (tilt, delta_e)
     # Not a view-independent bake: the colour moves with the view in the render and in three.js.
     from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
 

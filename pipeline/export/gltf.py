@@ -10,17 +10,19 @@ normals, and per material:
   ``baseColorTexture`` = the fitted base (sRGB colour, linear alpha = the baked opacity),
   ``alphaMode`` ``MASK`` with ``alphaCutoff`` = the preview's ``opacityThreshold``,
   ``metallicRoughnessTexture`` (G = fitted roughness, B = metallic 0), double-sided,
-  ``KHR_materials_specular`` ``specularFactor`` 0 (no dielectric lobe on top of the film) and
+  ``KHR_materials_specular``: factor 1, ``specularColorTexture`` = the fitted substrate's F0 over
+  ``[0, SUBSTRATE_F0_MAX]`` (sRGB, as the extension stores it) times ``specularColorFactor``
+  ``SUBSTRATE_F0_MAX / 0.04`` (glTF's F0 at its default index 1.5), and
   ``KHR_materials_iridescence``: factor 1 with ``iridescenceTexture`` R = the film's weight,
-  ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm and the fitted
+  ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm (a sampler without
+  mipmaps: a mipmap's mean thickness would draw a colour of its own) and the fitted
   ``iridescenceIor`` (glTF has one index per material);
 * any other material with a UsdPreviewSurface: its constant ``diffuseColor`` (linear, as glTF's
   ``baseColorFactor``), ``roughness`` and ``metallic``.
 
 The baked textures are read from the materials' own networks (the preview's ``BakedColor`` and
 ``BakedRoughness``, the preview-purpose material's film images), through USD's asset resolver:
-they give the opacity, the atlas resolution and the bake's mean film index (the fit's first
-candidate).
+they must be there (the asset is baked), and give the atlas resolution.
 """
 
 from __future__ import annotations
@@ -33,14 +35,18 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.materials import colour
+from pavonine.materials.display import srgb_encode
 from pavonine.pipeline.bake.asset import bound_meshes, mesh_data, root_layer_path
-from pavonine.pipeline.bake.textures import IOR_RANGE, THICKNESS_MAX_NM
+from pavonine.pipeline.bake.textures import THICKNESS_MAX_NM
 from pavonine.pipeline.errors import InputError, atomic_path
+from pavonine.pipeline.export.iridescence import SUBSTRATE_F0_MAX
 from pavonine.pipeline.export.look import fitted_look
 
 IRIDESCENCE = "KHR_materials_iridescence"
 SPECULAR = "KHR_materials_specular"
 GENERATOR = "pavonine (pipeline/export/gltf.py, pygltflib)"
+#: glTF's dielectric F0 at its default index 1.5, which ``specularColorFactor`` scales.
+DEFAULT_F0 = 0.04
 
 
 @dataclass
@@ -74,14 +80,17 @@ class _Binary:
         self.gl = gl
         self.doc = gl.GLTF2(asset=gl.Asset(generator=GENERATOR, version="2.0"))
         self.blob = bytearray()
-        self.doc.samplers.append(
-            gl.Sampler(
-                magFilter=gl.LINEAR,
-                minFilter=gl.LINEAR_MIPMAP_LINEAR,
-                wrapS=gl.CLAMP_TO_EDGE,
-                wrapT=gl.CLAMP_TO_EDGE,
+        # 0: mipmapped; 1 (the film's thickness): no mipmaps, since a mipmap's mean thickness
+        # draws a colour of its own, not the mean of its texels' colours
+        for minify in (gl.LINEAR_MIPMAP_LINEAR, gl.LINEAR):
+            self.doc.samplers.append(
+                gl.Sampler(
+                    magFilter=gl.LINEAR,
+                    minFilter=minify,
+                    wrapS=gl.CLAMP_TO_EDGE,
+                    wrapT=gl.CLAMP_TO_EDGE,
+                )
             )
-        )
 
     def view(self, data: bytes, target: int | None = None) -> int:
         while len(self.blob) % 4:
@@ -108,10 +117,11 @@ class _Binary:
         self.doc.accessors.append(accessor)
         return len(self.doc.accessors) - 1
 
-    def texture(self, png: bytes, name: str) -> int:
+    def texture(self, png: bytes, name: str, mipmaps: bool = True) -> int:
         gl = self.gl
         self.doc.images.append(gl.Image(bufferView=self.view(png), mimeType=gl.IMAGEPNG, name=name))
-        self.doc.textures.append(gl.Texture(sampler=0, source=len(self.doc.images) - 1))
+        sampler = 0 if mipmaps else 1
+        self.doc.textures.append(gl.Texture(sampler=sampler, source=len(self.doc.images) - 1))
         return len(self.doc.textures) - 1
 
     def save(self, path: Path) -> None:
@@ -196,17 +206,23 @@ def _feather_material(out: _Binary, material, portable, name: str, meshes: list)
     data = read_data_textures(files)
     threshold = preview.GetInput("opacityThreshold")
     cutoff = float(threshold.Get()) if threshold and threshold.Get() else 0.5
-    alpha = _alpha_weights(files["base_color"], data["film_ior"].shape, cutoff)
-    index = IOR_RANGE[0] + (IOR_RANGE[1] - IOR_RANGE[0]) * data["film_ior"]
-    film_ior = float(np.average(index, weights=alpha))
-    look = fitted_look(material, meshes, data["roughness"].shape[0], film_ior)
+    look = fitted_look(material, meshes, data["roughness"].shape[0])
     base = _png(look.base_rgba, colour.display_encode)
     zeros = np.zeros_like(look.weight)
     rough = out.texture(_png(np.stack([zeros, look.roughness, zeros], -1)), f"{name} roughness")
     iridescence = out.texture(
         _png(np.stack([look.weight, look.thickness_nm / THICKNESS_MAX_NM, zeros], -1)),
         f"{name} iridescence",
+        mipmaps=False,
     )
+    substrate = out.texture(
+        _png(look.substrate / SUBSTRATE_F0_MAX, srgb_encode), f"{name} substrate"
+    )
+    specular = {
+        "specularFactor": 1.0,
+        "specularColorFactor": [SUBSTRATE_F0_MAX / DEFAULT_F0] * 3,
+        "specularColorTexture": {"index": substrate},
+    }
     extension = {
         "iridescenceFactor": 1.0,
         "iridescenceTexture": {"index": iridescence},
@@ -227,26 +243,10 @@ def _feather_material(out: _Binary, material, portable, name: str, meshes: list)
             alphaMode=gl.MASK,
             alphaCutoff=cutoff,
             doubleSided=True,
-            extensions={IRIDESCENCE: extension, SPECULAR: {"specularFactor": 0.0}},
+            extensions={IRIDESCENCE: extension, SPECULAR: specular},
         )
     )
     return len(out.doc.materials) - 1
-
-
-def _alpha_weights(path: str, shape: tuple[int, int], cutoff: float) -> np.ndarray:
-    """1 where the baked base colour's alpha passes the cut, else 0 (all 1 if none does)."""
-    import OpenImageIO as oiio
-
-    from pavonine.asset_io import local_file
-    from pavonine.limits import check_image
-
-    local = local_file(path)
-    check_image(local, path)  # within the pixel budget before decoding
-    pixels = oiio.ImageBuf(local).get_pixels(oiio.FLOAT)
-    alpha = np.asarray(pixels)[..., 3] if pixels is not None and pixels.shape[-1] == 4 else None
-    if alpha is None or alpha.shape != shape or not np.any(alpha >= cutoff):
-        return np.ones(shape)
-    return (alpha >= cutoff).astype(np.float64)
 
 
 def _preview_material(out: _Binary, material, name: str) -> int:

@@ -1,15 +1,16 @@
 """The glTF feather material's textures: the model's reflectance of every texel of the atlas at
 the reference light and the face-on and tilted views (:mod:`pavonine.pipeline.bake.appearance`),
 fitted by :func:`pavonine.pipeline.export.iridescence.fit_film` to what a glTF viewer draws
-(base colour + ``KHR_materials_iridescence``, no dielectric specular).
+(base colour + ``KHR_materials_iridescence`` over a ``KHR_materials_specular`` substrate).
 
-The film (weight, thickness, roughness) is searched on every ``step``-th texel of the atlas in
+The film (weight, thickness, roughness, substrate) is searched on every ``step``-th texel of the atlas in
 each direction (at most :data:`FIT_RESOLUTION`² texels: the search is the costly part) and
-handed to every texel from its nearest searched one. The search runs twice: freely, then within
+handed to every texel from the searched one near it (its nearest or a corner of its grid cell)
+that fits its own reflectance best. The search runs twice: freely, then within
 30 nm of the median of the free search's thicknesses around the texel, so that neighbouring
-texels sit on one branch of the film's colour cycle (a texture filter averaging thicknesses of two branches would
-draw a third colour); each texel's base colour is then fitted at
-full resolution to its own reflectance (:func:`~pavonine.pipeline.export.iridescence.fit_base`).
+texels sit on one branch of the film's colour cycle (a texture filter averaging thicknesses of
+two branches would draw a third colour); each texel's base colour is then fitted at full
+resolution to its own reflectance (:func:`~pavonine.pipeline.export.iridescence.fit_base`).
 """
 
 from __future__ import annotations
@@ -21,12 +22,13 @@ import numpy as np
 from pavonine.pipeline.bake.appearance import REFERENCE_LIGHT, reflectance_at_views
 from pavonine.pipeline.bake.asset import feather_inputs, merge, mesh_data
 from pavonine.pipeline.bake.texels import dilate, nearest_covered, scatter, surface_texels
-from pavonine.pipeline.export.iridescence import VIEWS, fit_base, fit_film
+from pavonine.pipeline.export.iridescence import VIEWS, fit_base, fit_error, fit_film
 
 #: The film search's atlas resolution at most (texels per side).
 FIT_RESOLUTION = 128
-#: Film indices the fit tries (with the bake's mean index), on an eighth of the searched texels.
-IOR_CANDIDATES = (1.45, 1.8, 2.1)
+#: Film indices the fit tries, on an eighth of the searched texels: from water's to keratin's
+#: (1.56, the barbule's cortex; Leertouwer et al. 2011).
+IOR_CANDIDATES = (1.33, 1.45, 1.56)
 #: Side (searched texels) of the median that picks each texel's film branch.
 MEDIAN_SIZE = 5
 
@@ -34,13 +36,14 @@ MEDIAN_SIZE = 5
 @dataclass
 class FittedLook:
     """Images ``[row, column]`` over the atlas (row 0 = top): ``base_rgba`` (linear Rec. 709 +
-    opacity), iridescence ``weight``, ``thickness_nm`` and perceptual ``roughness``; and the
-    film's index ``film_ior``."""
+    opacity), iridescence ``weight``, ``thickness_nm``, perceptual ``roughness`` and the
+    ``substrate``'s F0 (linear RGB); and the film's index ``film_ior``."""
 
     base_rgba: np.ndarray
     weight: np.ndarray
     thickness_nm: np.ndarray
     roughness: np.ndarray
+    substrate: np.ndarray
     film_ior: float
 
 
@@ -76,14 +79,37 @@ def _local_median(texels, subset: np.ndarray, values: np.ndarray, step: int) -> 
     return filled[rows, cols]
 
 
-def _best_index(target, light, views, baked_ior: float) -> float:
-    """The film index (the bake's mean or one of :data:`IOR_CANDIDATES`) whose free fit of every
-    eighth searched texel leaves the smallest mean relative residual."""
+def _around(texels, subset: np.ndarray, step: int, nearest_fit: np.ndarray) -> np.ndarray:
+    """Per covered texel, the searched texels whose films it may take: its nearest and the
+    (covered) corners of the ``step`` grid cell it lies in, ``(n, 5)`` (the nearest where a
+    corner is not covered)."""
+    size = -(-texels.resolution // step) + 1
+    slots = np.full((size, size), -1)
+    rows, cols = np.divmod(texels.index[subset], texels.resolution)
+    slots[rows // step, cols // step] = np.arange(len(subset))
+    rows, cols = np.divmod(texels.index, texels.resolution)
+    corners = [slots[rows // step + dr, cols // step + dc] for dr in (0, 1) for dc in (0, 1)]
+    return np.stack([nearest_fit, *(np.where(c >= 0, c, nearest_fit) for c in corners)], 1)
+
+
+def _film_of(film, index: np.ndarray) -> tuple:
+    """Weight, thickness, roughness and substrate of the searched ``film`` at ``index``."""
+    return (
+        film.weight[index],
+        film.thickness_nm[index],
+        film.roughness[index],
+        film.substrate[index],
+    )
+
+
+def _best_index(target, light, views) -> float:
+    """The film index (one of :data:`IOR_CANDIDATES`) whose free fit of every eighth searched
+    texel leaves the smallest mean relative residual."""
     few = slice(None, None, 8)
     errors = {}
-    for ior in (baked_ior, *IOR_CANDIDATES):
+    for ior in IOR_CANDIDATES:
         fit = fit_film(target[few], light[few], views[few], ior)
-        errors[ior] = np.mean(np.abs(fit.reflectance - target[few]) / (target[few] + 0.02))
+        errors[ior] = np.mean(fit_error(fit.reflectance, target[few]))
     return min(errors, key=errors.get)
 
 
@@ -116,22 +142,28 @@ def look_targets(material, meshes: list, resolution: int) -> LookTargets:
     return LookTargets(texels, np.clip(target, 0.0, None), light, views, inputs)
 
 
-def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> FittedLook:
+def fitted_look(material, meshes: list, resolution: int) -> FittedLook:
     """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
-    ``st`` atlas rasterised at ``resolution``); ``film_ior``: the bake's mean film index, the
-    first candidate for the film's."""
+    ``st`` atlas rasterised at ``resolution``)."""
     found = look_targets(material, meshes, resolution)
     texels, target, light, views = found.texels, found.target, found.light, found.views
     inputs = found.inputs
     step = max(1, resolution // FIT_RESOLUTION)
     subset, nearest_fit = _searched(texels, step)
-    film_ior = _best_index(target[subset], light[subset], views[subset], film_ior)
+    film_ior = _best_index(target[subset], light[subset], views[subset])
     sub = (target[subset], light[subset], views[subset], film_ior)
     first = fit_film(*sub)
     film = fit_film(*sub, prior_nm=_local_median(texels, subset, first.thickness_nm, step))
-    weight, thickness = film.weight[nearest_fit], film.thickness_nm[nearest_fit]
-    roughness = film.roughness[nearest_fit]
-    fit = fit_base(target, light, views, weight, thickness, roughness, film_ior)
+    pick = nearest_fit
+    best = np.full(len(target), np.inf)
+    for candidate in _around(texels, subset, step, nearest_fit).T:
+        weight, thickness, roughness, substrate = _film_of(film, candidate)
+        fit = fit_base(target, light, views, weight, thickness, roughness, film_ior, substrate)
+        error = fit_error(fit.reflectance, target)
+        better = error < best
+        pick, best = np.where(better, candidate, pick), np.where(better, error, best)
+    weight, thickness, roughness, substrate = _film_of(film, pick)
+    fit = fit_base(target, light, views, weight, thickness, roughness, film_ior, substrate)
     nearest = nearest_covered(texels.covered)
 
     def image(values: np.ndarray) -> np.ndarray:
@@ -142,5 +174,6 @@ def fitted_look(material, meshes: list, resolution: int, film_ior: float) -> Fit
         weight=image(weight),
         thickness_nm=image(thickness),
         roughness=image(roughness),
+        substrate=image(substrate),
         film_ior=film_ior,
     )
