@@ -3,22 +3,31 @@
 ``tests/threejs/gltf_view.html`` loads the file with GLTFLoader under the camera and lights it is
 given, renders into a linear float target and POSTs the pixels to the small loopback server
 here; three.js comes from ``.ci/node_modules`` (``.ci/package.json``, installed by ``.ci/setup``).
+:func:`compare_zones` sets the shipped scene's camera, sun and sky on a feather asset, turned
+about the vertical, and compares three.js' frame with ``pavonine render``'s per ocellus zone
+(tests/test_gltf_threejs.py, benchmarks/gltf_threejs.py).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 import threading
 import urllib.parse
+from dataclasses import dataclass
 from functools import partial
 from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
 
-CI = Path(__file__).resolve().parents[1] / ".ci"
+REPO = Path(__file__).resolve().parents[1]
+CI = REPO / ".ci"
+SCENE = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
+#: The shipped scene's sun: from the right, 25° off the vane normal; E = π.
+SUN = [math.sin(math.radians(25.0)), 0.0, math.cos(math.radians(25.0))]
 THREE = CI / "node_modules" / "three"
 PAGE = Path(__file__).resolve().parent / "threejs" / "gltf_view.html"
 
@@ -92,3 +101,96 @@ def draw(glb: Path, view: dict, folder: Path, timeout: float = 240.0) -> np.ndar
         raise RuntimeError(f"three.js page failed: {results['/error'].decode()}")
     pixels = np.frombuffer(results["/result"], dtype="<f4")
     return pixels.reshape(height, width, 4).astype(np.float64)
+
+
+def page_view(tilt_deg: float, camera: tuple[float, float, float], **extra) -> dict:
+    """A page view: the camera at ``camera`` (m) turned by ``tilt_deg`` about the world's +Y."""
+    c = math.radians(tilt_deg)
+    x, y, z = camera
+    return {
+        "camera_position": [
+            x * math.cos(c) + z * math.sin(c),
+            y,
+            -x * math.sin(c) + z * math.cos(c),
+        ],
+        "camera_rotate_y_deg": tilt_deg,
+        "sun_direction": SUN,
+        "sun_intensity": math.pi,
+        **extra,
+    }
+
+
+def tilted_scene(root: Path, tilt_deg: float, folder: Path) -> Path:
+    """The shipped scene (assets/scenes/eye_feather_sun.usda) on the feather asset ``root``, its
+    camera turned by ``tilt_deg`` about the world's +Y, written into ``folder``."""
+    text = SCENE.read_text().replace("@../feathers/eye_feather/eye_feather.usd@", f"@{root}@")
+    if tilt_deg:
+        old = (
+            "double3 xformOp:translate = (0, 17, 36)\n"
+            '        uniform token[] xformOpOrder = ["xformOp:translate"]'
+        )
+        assert old in text
+        text = text.replace(
+            old,
+            f"float xformOp:rotateY = {tilt_deg}\n        double3 xformOp:translate = (0, 17, 36)\n"
+            '        uniform token[] xformOpOrder = ["xformOp:rotateY", "xformOp:translate"]',
+        )
+    path = folder / f"scene_{tilt_deg:+.0f}.usda"
+    path.write_text(text)
+    return path
+
+
+def scene_camera(scene: Path) -> dict:
+    """The scene camera's vertical field of view and position in metres (metersPerUnit)."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(scene))
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/World/Camera")).GetCamera()
+    scale = UsdGeom.GetStageMetersPerUnit(stage)
+    fov = 2.0 * math.degrees(math.atan(camera.verticalAperture / (2.0 * camera.focalLength)))
+    translate = stage.GetPrimAtPath("/World/Camera").GetAttribute("xformOp:translate").Get()
+    near, far = camera.clippingRange.min * scale, camera.clippingRange.max * scale
+    return {"fov_deg": fov, "near": near, "far": far, "position": [v * scale for v in translate]}
+
+
+@dataclass
+class ZoneComparison:
+    """Per ocellus zone: ``delta_e`` (ΔE2000 of the mean colours), ``means`` (render's, three.js'
+    linear RGB) and ``pixels``; and both frames (``render``, ``three``)."""
+
+    delta_e: dict
+    means: dict
+    pixels: dict
+    render: np.ndarray
+    three: np.ndarray
+
+
+def compare_zones(glb: Path, asset: Path, tilt_deg: float, folder: Path, resolution, spp: int):
+    """``glb`` drawn by three.js and ``asset`` (its ``.usd``) rendered by ``pavonine render`` in
+    the shipped scene turned by ``tilt_deg`` (:func:`tilted_scene`) at ``resolution`` (width,
+    height) and ``spp``, compared per zone (tests/ocellus_zones.py) as a display shows the render
+    (negative components clipped, as ``pavonine render --png`` does); writes
+    ``render_vs_threejs_<tilt>.png`` side by side into ``folder``."""
+    from ocellus_zones import zone_delta_e, zone_masks
+
+    from pavonine.render.api import render_stage
+    from pavonine.render.imageio import write_png
+
+    width, height = resolution
+    scene = tilted_scene(asset, tilt_deg, folder)
+    render = render_stage(scene, spp=spp, resolution=resolution, seed=0, progress=False)
+    camera = scene_camera(scene)
+    view = page_view(tilt_deg, camera["position"], resolution=[width, height])
+    view |= {"fov_deg": camera["fov_deg"], "near": camera["near"], "far": camera["far"]}
+    # The scene's sky: a uniform dome of radiance 0.05·(0.55, 0.7, 1); three.js' ambient light of
+    # intensity I lights a Lambertian surface with radiance I·albedo/π.
+    view |= {"sky_color": [0.55, 0.7, 1.0], "sky_intensity": 0.05 * math.pi}
+    three = draw(glb, view, folder / f"page{tilt_deg:+.0f}")[..., :3]
+    write_png(
+        folder / f"render_vs_threejs_{tilt_deg:+.0f}.png", np.concatenate([render.rgb, three], 1)
+    )
+    masks = zone_masks(scene, asset.parent / "maps", width, height)
+    shown = np.clip(render.rgb, 0.0, None)
+    means = {k: (shown[m].mean(axis=0), three[m].mean(axis=0)) for k, m in masks.items()}
+    pixels = {k: int(m.sum()) for k, m in masks.items()}
+    return ZoneComparison(zone_delta_e(shown, three, masks), means, pixels, render.rgb, three)

@@ -15,19 +15,16 @@ inverts): a flat quad of one material, free-standing film or over a coloured sub
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from gltf_browser import THREE, chromium, draw
-from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
+from gltf_browser import SUN, THREE, chromium, compare_zones, draw, page_view
+from ocellus_zones import ZONE_NAMES
 
 from pavonine.pipeline.export import iridescence as irid
 
 pytestmark = pytest.mark.browser
-REPO = Path(__file__).resolve().parents[1]
-SCENE = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
 RESOLUTION = (128, 192)
 SPP = 32
 #: The zones the issue names: the heart, the three rings, the vane (class 0, a sliver below the
@@ -35,8 +32,6 @@ SPP = 32
 ZONES = (5, 4, 3, 2, 1)
 #: Per zone, the issue's bound.
 MAX_DELTA_E = 5.0
-#: The shipped scene's sun: from the right, 25° off the vane normal; E = π.
-SUN = [math.sin(math.radians(25.0)), 0.0, math.cos(math.radians(25.0))]
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -45,23 +40,6 @@ def _browser():
         pytest.skip("Chromium not installed")
     if not THREE.is_dir():
         pytest.skip("three.js not installed in .ci/node_modules (run .ci/setup)")
-
-
-def _view(tilt_deg: float, camera: tuple[float, float, float], **extra) -> dict:
-    """A page view: the camera at ``camera`` (m) turned by ``tilt_deg`` about the world's +Y."""
-    c = math.radians(tilt_deg)
-    x, y, z = camera
-    return {
-        "camera_position": [
-            x * math.cos(c) + z * math.sin(c),
-            y,
-            -x * math.sin(c) + z * math.cos(c),
-        ],
-        "camera_rotate_y_deg": tilt_deg,
-        "sun_direction": SUN,
-        "sun_intensity": math.pi,
-        **extra,
-    }
 
 
 def _quad(path: Path, base, weight, thickness, roughness, ior, substrate) -> None:
@@ -131,7 +109,9 @@ def test_threejs_draws_the_model_the_fit_inverts(tmp_path, weight, thickness, ro
         base[None], [weight], [thickness], light, views[None], [roughness], 1.56, [substrate]
     )[0]
     for k, tilt in enumerate((0.0, irid.TILT_DEG)):
-        view = _view(tilt, (0.0, 0.0, 1.0), resolution=[16, 16], fov_deg=1.0, near=0.1, far=10.0)
+        view = page_view(
+            tilt, (0.0, 0.0, 1.0), resolution=[16, 16], fov_deg=1.0, near=0.1, far=10.0
+        )
         view |= {"sky_color": [0.0, 0.0, 0.0], "sky_intensity": 0.0}
         pixels = draw(tmp_path / "quad.glb", view, tmp_path / f"page{k}")
         drawn = pixels[8, 8, :3] / SUN[2]  # radiance E cos θ_i f, E = π → reflectance factor
@@ -139,72 +119,22 @@ def test_threejs_draws_the_model_the_fit_inverts(tmp_path, weight, thickness, ro
     assert not np.allclose(expected[0], expected[1], atol=0.05)  # the film moves with the view
 
 
-def _scene(root: Path, tilt_deg: float, folder: Path) -> Path:
-    text = SCENE.read_text().replace("@../feathers/eye_feather/eye_feather.usd@", f"@{root}@")
-    if tilt_deg:
-        old = (
-            "double3 xformOp:translate = (0, 17, 36)\n"
-            '        uniform token[] xformOpOrder = ["xformOp:translate"]'
-        )
-        assert old in text
-        text = text.replace(
-            old,
-            f"float xformOp:rotateY = {tilt_deg}\n        double3 xformOp:translate = (0, 17, 36)\n"
-            '        uniform token[] xformOpOrder = ["xformOp:rotateY", "xformOp:translate"]',
-        )
-    path = folder / f"scene_{tilt_deg:+.0f}.usda"
-    path.write_text(text)
-    return path
-
-
-def _camera(scene: Path) -> dict:
-    """The scene camera's vertical field of view and position in metres (metersPerUnit)."""
-    from pxr import Usd, UsdGeom
-
-    stage = Usd.Stage.Open(str(scene))
-    camera = UsdGeom.Camera(stage.GetPrimAtPath("/World/Camera")).GetCamera()
-    scale = UsdGeom.GetStageMetersPerUnit(stage)
-    fov = 2.0 * math.degrees(math.atan(camera.verticalAperture / (2.0 * camera.focalLength)))
-    translate = stage.GetPrimAtPath("/World/Camera").GetAttribute("xformOp:translate").Get()
-    near, far = camera.clippingRange.min * scale, camera.clippingRange.max * scale
-    return {"fov_deg": fov, "near": near, "far": far, "position": [v * scale for v in translate]}
-
-
 @pytest.mark.render
 def test_exported_glb_in_threejs_matches_the_render_face_on_and_tilted(eye_asset, tmp_path):
     from click.testing import CliRunner
 
     from pavonine.pipeline.cli import cli
-    from pavonine.render.api import render_stage
-    from pavonine.render.imageio import write_png
 
     glb = tmp_path / "eye_feather.glb"
     result = CliRunner().invoke(cli, ["export", str(eye_asset.parent), "-o", str(glb)])
     assert result.exit_code == 0, result.output
-    width, height = RESOLUTION
     drawn = {}
     for tilt in (0.0, irid.TILT_DEG):
-        scene = _scene(eye_asset, tilt, tmp_path)
-        render = render_stage(scene, spp=SPP, resolution=RESOLUTION, seed=0, progress=False)
-        camera = _camera(scene)
-        view = _view(
-            tilt, camera["position"], resolution=[width, height], fov_deg=camera["fov_deg"]
-        )
-        view |= {"near": camera["near"], "far": camera["far"]}
-        # The scene's sky: a uniform dome of radiance 0.05·(0.55, 0.7, 1); three.js' ambient
-        # light of intensity I lights a Lambertian surface with radiance I·albedo/π.
-        view |= {"sky_color": [0.55, 0.7, 1.0], "sky_intensity": 0.05 * math.pi}
-        three = draw(glb, view, tmp_path / f"page{tilt:+.0f}")[..., :3]
-        write_png(
-            tmp_path / f"render_vs_threejs_{tilt:+.0f}.png", np.concatenate([render.rgb, three], 1)
-        )
-        masks = zone_masks(scene, eye_asset.parent / "maps", width, height)
-        shown = np.clip(render.rgb, 0.0, None)
-        means = {k: (shown[m].mean(axis=0), three[m].mean(axis=0)) for k, m in masks.items()}
-        drawn[tilt] = (zone_delta_e(shown, three, masks), means)
+        found = compare_zones(glb, eye_asset, tilt, tmp_path, RESOLUTION, SPP)
+        drawn[tilt] = (found.delta_e, found.means)
         print(f"\ntilt {tilt:+.0f}°  zone  pixels  ΔE2000 (render vs three.js)")
-        for k, de in drawn[tilt][0].items():
-            print(f"{ZONE_NAMES[k]:>16}  {int(masks[k].sum()):>6}  {de:6.2f}")
+        for k, de in found.delta_e.items():
+            print(f"{ZONE_NAMES[k]:>16}  {found.pixels[k]:>6}  {de:6.2f}")
     for tilt, (delta_e, _) in drawn.items():
         assert set(delta_e) >= set(ZONES), (tilt, sorted(delta_e))
         assert max(delta_e[k] for k in ZONES) <= MAX_DELTA_E, (tilt, delta_e)
