@@ -1,0 +1,287 @@
+"""What a Blender user sees when importing our ``.glb``: Blender's own glTF importer
+(``bpy.ops.import_scene.gltf``) and Cycles (and EEVEE where it starts headless) against Pavonine's
+render of the same camera and sun, per ocellus zone, face-on and tilted 40°.
+
+The setup is tests/test_gltf_threejs.py's, with Blender in place of three.js: the test eye
+(256-px maps, seed 4, as tests/conftest.py ``convert_eye`` builds it) exported with
+``pavonine export``; ``assets/scenes/eye_feather_sun.usda`` pointed at it, its camera turned by
+``pipeline.export.iridescence.TILT_DEG`` about +Y for the tilted view; Pavonine's render at
+128×192, 32 spp (``render_stage``). Blender gets the USD camera (position, turn, vertical field
+of view, clip range; placed in Blender's Z-up frame as the importer converts glTF's Y-up one), a
+Sun lamp of π W/m² from the scene's sun direction (25° to the right, 0.53° wide), the sky as a
+uniform world colour 0.05·(0.55, 0.7, 1) of strength 1, the "Standard" view transform and linear
+float EXRs. Printed per view and zone: ΔE2000 of the zone means (tests/ocellus_zones.py, the
+render clipped to the gamut as in the test), how well Blender's alpha matches the feather's
+silhouette in Pavonine's frame, and what the importer connected to the Principled BSDF. PNGs
+(render | Cycles | EEVEE) go to the output folder.
+
+Blender's Python module is not a project dependency: it runs in a virtual environment of its own
+(CPython 3.11), whose python is ``--bpy-python`` (default ``$PAVONINE_BPY_PYTHON``, else
+``.venv-bpy/bin/python`` in the checkout):
+
+    python3.11 -m venv .venv-bpy && .venv-bpy/bin/pip install bpy==5.0.1
+    .venv/bin/python benchmarks/blender_gltf.py [--asset ASSET | --glb X.glb --asset ASSET]
+
+Measured with bpy 5.0.1 (Blender 5.0.1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+CHILD = Path(__file__).with_name("blender_render_gltf.py")
+BPY_VERSION = "5.0.1"
+INSTALL = f"python3.11 -m venv .venv-bpy && .venv-bpy/bin/pip install bpy=={BPY_VERSION}"
+ENGINES = ("cycles", "eevee")
+
+
+def _bpy_python(given: str | None) -> str:
+    """The bpy venv's python, or exit saying how to make one."""
+    python = given or os.environ.get("PAVONINE_BPY_PYTHON") or str(REPO / ".venv-bpy/bin/python")
+    probe = "import bpy; print(bpy.app.version_string)"
+    try:
+        found = subprocess.run([python, "-c", probe], capture_output=True, text=True, timeout=120)
+    except OSError as exc:
+        found = None
+        why = str(exc)
+    else:
+        why = (found.stderr.strip().splitlines() or ["?"])[-1]
+    if found is None or found.returncode != 0:
+        raise SystemExit(
+            f"error: no Blender Python module at {python} ({why}).\n"
+            f"Install it in a venv of its own (CPython 3.11; measured with bpy {BPY_VERSION}):\n"
+            f"    {INSTALL}\n"
+            "then pass --bpy-python .venv-bpy/bin/python (or set PAVONINE_BPY_PYTHON)."
+        )
+    return python
+
+
+def _eye(work: Path) -> Path:
+    """The test eye, built as tests/conftest.py ``convert_eye(work, "eye_feather")`` builds it."""
+    from pavonine.pipeline.convert.batch import convert_recipe
+    from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
+
+    name = "eye_feather"
+    if not (work / "m").is_dir():
+        write_maps(generate_maps("eye", 256, seed=4), work / "m")
+    maps = "\n".join(f'{map_name} = "m/{map_name}.png"' for map_name in MAP_NAMES)
+    (work / f"{name}.toml").write_text(
+        f'name = "{name}"\n[maps]\n{maps}\n[material]\npreset = "freyer2020"\n'
+        "[geometry]\nlength_cm = 20\nrachis_length = 0.74\n"
+        "[geometry.lod]\nhigh = 12000\nmedium = 4000\nlow = 1000\n"
+        "[bake]\nresolution = 256\n"
+    )
+    return convert_recipe(work / f"{name}.toml", work / "out").root
+
+
+def _asset_usd(asset: str) -> Path:
+    """An asset folder's root layer (``<folder>/<folder name>.usd``), or the layer given."""
+    path = Path(asset).resolve()
+    if path.is_dir():
+        path = path / f"{path.name}.usd"
+    if not path.is_file():
+        raise SystemExit(f"error: {path}: no such asset layer")
+    return path
+
+
+def _silhouette(scene: Path, maps: Path, width: int, height: int) -> np.ndarray:
+    """Pixels whose centre sees the vane where its alpha map passes glTF's cutoff, or the rachis
+    (Pavonine's frame)."""
+    from ocellus_zones import feather_hits
+
+    from pavonine.pipeline.maps.io import read_map, sample_bilinear
+
+    uv, on_vane = feather_hits(scene, width, height)
+    _, on_rachis = feather_hits(scene, width, height, mesh="Rachis")
+    alpha = np.zeros((height, width))
+    alpha[on_vane] = sample_bilinear(read_map(maps / "alpha.png", "alpha"), uv[on_vane])
+    return (alpha >= 0.5) | on_rachis
+
+
+def _mask_match(expected: np.ndarray, alpha: np.ndarray) -> str:
+    drawn = alpha >= 0.5
+    union = (expected | drawn).sum()
+    iou = (expected & drawn).sum() / max(union, 1)
+    shift = ""
+    if drawn.any() and expected.any():
+        centre = [np.argwhere(m).mean(axis=0) for m in (expected, drawn)]
+        dy, dx = centre[1] - centre[0]
+        shift = f", centroid moved ({dx:+.2f}, {dy:+.2f}) px (x right, y down)"
+    return f"{int(expected.sum())} px expected, {int(drawn.sum())} drawn, IoU {iou:.3f}{shift}"
+
+
+def _describe(socket: dict) -> str:
+    """One line for what feeds a Principled input (blender_render_gltf.py's report)."""
+    if "node" not in socket:
+        return f"constant {socket.get('value')}"
+    parts = []
+    while socket and "node" in socket:
+        what = socket["node"].removeprefix("ShaderNode")
+        if "image" in socket:
+            what += f" '{socket['image']}' ({socket['colorspace']})"
+        if "blend_type" in socket:
+            what += f" {socket['blend_type']} clamp={socket['clamp_result']}"
+            consts = [v["value"] for v in socket["inputs"].values() if "value" in v]
+            what += f" by {consts[-1]}" if consts else ""
+        if "operation" in socket:
+            consts = [v["value"] for v in socket["inputs"].values() if "value" in v]
+            what += f" {socket['operation']} {consts}"
+        parts.append(f"{what}.{socket['output']}")
+        linked = [v for v in socket.get("inputs", {}).values() if "node" in v]
+        socket = linked[0] if linked else None
+    return " <- ".join(parts)
+
+
+def main() -> None:
+    from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
+    from test_gltf_threejs import RESOLUTION, SPP, SUN, _camera, _scene
+
+    from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
+    from pavonine.pipeline.cli import cli
+    from pavonine.pipeline.export import iridescence as irid
+    from pavonine.render.api import render_stage
+    from pavonine.render.imageio import read_exr, write_png
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--asset", help="asset folder (or its root .usd); default: the test eye")
+    parser.add_argument("--glb", help="a .glb exported from --asset; default: export it")
+    parser.add_argument("--out", default=str(Path(tempfile.gettempdir()) / "pavonine_blender_gltf"))
+    parser.add_argument("--bpy-python", help="python of the venv with bpy")
+    parser.add_argument("--cycles-samples", type=int, default=64)
+    parser.add_argument("--eevee-samples", type=int, default=64)
+    parser.add_argument("--engines", default=",".join(ENGINES), help="cycles,eevee")
+    args = parser.parse_args()
+    if args.glb and not args.asset:
+        parser.error("--glb needs the --asset it was exported from (for the zones and reference)")
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    bpy_python = _bpy_python(args.bpy_python)
+    engines = [e for e in args.engines.split(",") if e]
+
+    usd = _asset_usd(args.asset) if args.asset else _eye(out / "eye")
+    if args.glb:
+        glb = Path(args.glb).resolve()
+    else:
+        from click.testing import CliRunner
+
+        glb = out / f"{usd.stem}.glb"
+        result = CliRunner().invoke(cli, ["export", str(usd.parent), "-o", str(glb)])
+        if result.exit_code != 0:
+            raise SystemExit(f"error: pavonine export failed:\n{result.output}")
+    width, height = RESOLUTION
+    views, refs = [], {}
+    for tilt in (0.0, irid.TILT_DEG):
+        name = f"{tilt:+.0f}"
+        scene = _scene(usd, tilt, out)
+        started = time.perf_counter()
+        refs[name] = (scene, render_stage(scene, spp=SPP, resolution=RESOLUTION, seed=0,
+                                          progress=False).rgb)  # fmt: skip
+        print(f"Pavonine render {name}°: {time.perf_counter() - started:.0f} s")
+        camera = _camera(scene)
+        c = math.radians(tilt)
+        x, y, z = camera["position"]
+        views.append(
+            {
+                "name": name,
+                "position": [
+                    x * math.cos(c) + z * math.sin(c),
+                    y,
+                    -x * math.sin(c) + z * math.cos(c),
+                ],
+                "rotate_y_deg": tilt,
+                "fov_deg": camera["fov_deg"],
+                "near": camera["near"],
+                "far": camera["far"],
+            }
+        )
+    job = {
+        "glb": str(glb),
+        "out": str(out / "blender"),
+        "resolution": [width, height],
+        "views": views,
+        "sun": SUN,
+        "sun_irradiance": math.pi,
+        "sun_angle_deg": 0.53,  # the scene's DistantLight inputs:angle
+        "sky": [0.05 * c for c in (0.55, 0.7, 1.0)],
+        "engines": engines,
+        "cycles_samples": args.cycles_samples,
+        "eevee_samples": args.eevee_samples,
+        "threads": 2,
+    }
+    (out / "job.json").write_text(json.dumps(job, indent=1))
+    started = time.perf_counter()
+    child = subprocess.run(
+        [bpy_python, str(CHILD), str(out / "job.json")], capture_output=True, text=True
+    )
+    (out / "blender.log").write_text(child.stdout + child.stderr)
+    if child.returncode != 0:
+        raise SystemExit(f"error: Blender failed (log: {out / 'blender.log'}):\n{child.stderr}")
+    report = json.loads((out / "blender" / "blender.json").read_text())
+    print(f"Blender {report['blender']} (bpy): {time.perf_counter() - started:.0f} s")
+
+    print("\nWhat the importer connected (Principled BSDF of each material):")
+    for material, entry in report["materials"].items():
+        print(f"  {material}: render method {entry.get('surface_render_method')}")
+        for socket, feed in entry.get("principled", {}).items():
+            print(f"    {socket:>20}: {_describe(feed)}")
+    for engine in engines:
+        if "error" in report["engines"][engine]:
+            print(f"\n{engine}: did not render: {report['engines'][engine]['error']}")
+    drawn = [e for e in engines if "files" in report["engines"][e]]
+
+    seen = {}
+    for view in views:
+        name = view["name"]
+        scene, rgb = refs[name]
+        shown = np.clip(rgb, 0.0, None)
+        images = {e: read_exr(report["engines"][e]["files"][name])[0] for e in drawn}
+        silhouette = _silhouette(scene, usd.parent / "maps", width, height)
+        masks = zone_masks(scene, usd.parent / "maps", width, height)
+        seen[name] = (masks, images)
+        print(f"\ntilt {name}°")
+        for e in drawn:
+            print(
+                f"  {e} alpha vs Pavonine's silhouette: {_mask_match(silhouette, images[e][..., 3])}"
+            )
+        deltas = {e: zone_delta_e(shown, images[e][..., :3], masks) for e in drawn}
+        header = "".join(f"  ΔE {e:>6}" for e in drawn)
+        means = "".join(f"  {e + ' mean RGB':>24}" for e in drawn)
+        print(f"  {'zone':>16}  pixels{header}  {'render mean RGB':>24}{means}")
+        for k in masks:
+            cells = "".join(f"  {deltas[e][k]:9.2f}" for e in drawn)
+            rgbs = [shown[masks[k]].mean(axis=0)] + [images[e][masks[k]][:, :3].mean(axis=0)
+                                                     for e in drawn]  # fmt: skip
+            text = "".join(f"  {np.array2string(c, precision=3):>24}" for c in rgbs)
+            print(f"  {ZONE_NAMES[k]:>16}  {int(masks[k].sum()):>6}{cells}{text}")
+        zones = [k for k in (5, 4, 3, 2, 1) if k in masks]
+        mean = "".join(f"  {np.mean([deltas[e][k] for k in zones]):9.2f}" for e in drawn)
+        print(f"  {'mean (5 zones)':>16}  {'':>6}{mean}")
+        panels = [rgb] + [images[e][..., :3] for e in drawn]
+        png = out / f"render_vs_blender_{name}.png"
+        write_png(png, np.concatenate(panels, axis=1))
+        print(f"  side by side (render | {' | '.join(drawn)}): {png}")
+    (face_masks, face), (tilted_masks, tilted) = seen.values()
+    for e in drawn:  # the colour moves with the view, as in the render?
+        moved = []
+        for k in (2, 3, 4):
+            if k in face_masks and k in tilted_masks:
+                a = linear_srgb_to_lab(face[e][face_masks[k]][:, :3].mean(axis=0))
+                b = linear_srgb_to_lab(tilted[e][tilted_masks[k]][:, :3].mean(axis=0))
+                moved.append(f"{ZONE_NAMES[k]} {float(delta_e2000(a, b)):.1f}")
+        print(f"{e}: ΔE2000 face-on -> tilted within each ring: {', '.join(moved)}")
+
+
+if __name__ == "__main__":
+    main()
