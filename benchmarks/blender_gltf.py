@@ -44,7 +44,9 @@ sys.path.insert(0, str(REPO / "tests"))
 CHILD = Path(__file__).with_name("blender_render_gltf.py")
 BPY_VERSION = "5.0.1"
 INSTALL = f"python3.11 -m venv .venv-bpy && .venv-bpy/bin/pip install bpy=={BPY_VERSION}"
-ENGINES = ("cycles", "eevee")
+#: ``cycles_film``: Cycles again after the child wires by hand the film the importer leaves out
+#: (what Blender could draw if it read KHR_materials_iridescence; blender_render_gltf.wire_film).
+ENGINES = ("cycles", "eevee", "cycles_film")
 
 
 def _bpy_python(given: str | None) -> str:
@@ -161,7 +163,7 @@ def main() -> None:
     parser.add_argument("--bpy-python", help="python of the venv with bpy")
     parser.add_argument("--cycles-samples", type=int, default=64)
     parser.add_argument("--eevee-samples", type=int, default=64)
-    parser.add_argument("--engines", default=",".join(ENGINES), help="cycles,eevee")
+    parser.add_argument("--engines", default=",".join(ENGINES), help="cycles,eevee,cycles_film")
     args = parser.parse_args()
     if args.glb and not args.asset:
         parser.error("--glb needs the --asset it was exported from (for the zones and reference)")
@@ -268,7 +270,8 @@ def main() -> None:
         zones = [k for k in (5, 4, 3, 2, 1) if k in masks]
         mean = "".join(f"  {np.mean([deltas[e][k] for k in zones]):9.2f}" for e in drawn)
         print(f"  {'mean (5 zones)':>16}  {'':>6}{mean}")
-        panels = [rgb] + [images[e][..., :3] for e in drawn]
+        sky = np.array(job["sky"])  # the film is transparent: show Blender's over the sky
+        panels = [rgb] + [images[e][..., :3] + (1 - images[e][..., 3:]) * sky for e in drawn]
         png = out / f"render_vs_blender_{name}.png"
         write_png(png, np.concatenate(panels, axis=1))
         print(f"  side by side (render | {' | '.join(drawn)}): {png}")

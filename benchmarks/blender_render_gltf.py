@@ -9,7 +9,8 @@ into an empty scene, light and frame it as a Pavonine scene, render linear float
 ``position``: the camera in glTF's frame, metres, +Y up; ``rotate_y_deg``: its turn about +Y from
 looking down -Z; ``fov_deg``: vertical field of view; ``near``, ``far``), ``sun`` (unit vector
 toward the sun, glTF frame), ``sun_irradiance`` (W/m²), ``sun_angle_deg``, ``sky`` (radiance),
-``engines`` (``"cycles"``, ``"eevee"``), ``cycles_samples``, ``eevee_samples``, ``threads``.
+``engines`` (``"cycles"``, ``"eevee"``, and last ``"cycles_film"``: Cycles after wiring by hand
+the film the importer leaves out, :func:`wire_film`), ``cycles_samples``, ``eevee_samples``, ``threads``.
 Writes ``OUT/<engine>_<view>.exr`` and ``OUT/blender.json`` (versions, per engine what rendered
 or why not, per material what feeds each Principled BSDF input).
 """
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 import sys
 import traceback
 from pathlib import Path
@@ -41,6 +43,9 @@ INPUTS = (
     "Transmission Weight",
     "Emission Strength",
 )
+
+#: glTF's dielectric F0 (index 1.5), which KHR_materials_specular's colour scales.
+DEFAULT_F0 = 0.04
 
 
 def to_blender(v) -> Vector:
@@ -111,6 +116,128 @@ def material_report() -> dict:
     return report
 
 
+def _glb(path: str) -> tuple[dict, bytes]:
+    """A binary glTF's JSON and its BIN chunk."""
+    data = Path(path).read_bytes()
+    size = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20 : 20 + size])
+    rest = 20 + size
+    return doc, data[rest + 8 : rest + 8 + struct.unpack_from("<I", data, rest)[0]]
+
+
+def _math(nodes, links, operation: str, a, b=None):
+    node = nodes.new("ShaderNodeMath")
+    node.operation = operation
+    for socket, value in zip(node.inputs, (a, b), strict=False):
+        if value is None:
+            continue
+        if isinstance(value, (int, float)):
+            socket.default_value = value
+        else:
+            links.new(socket, value)
+    return node.outputs[0]
+
+
+def _ior_of_f0(nodes, links, tint):
+    """Node math: the dielectric index whose F0 is the mean of ``tint`` times glTF's 0.04."""
+    split = nodes.new("ShaderNodeSeparateColor")
+    links.new(split.inputs[0], tint)
+    total = _math(nodes, links, "ADD", split.outputs[0], split.outputs[1])
+    total = _math(nodes, links, "ADD", total, split.outputs[2])
+    f0 = _math(nodes, links, "MULTIPLY", total, DEFAULT_F0 / 3.0)
+    f0 = _math(nodes, links, "MINIMUM", _math(nodes, links, "MAXIMUM", f0, 1e-4), 0.9)
+    root = _math(nodes, links, "SQRT", f0)
+    top = _math(nodes, links, "ADD", root, 1.0)
+    return _math(nodes, links, "DIVIDE", top, _math(nodes, links, "SUBTRACT", 1.0, root))
+
+
+def _texture(mat, doc: dict, blob: bytes, ext: dict, key: str, out: Path):
+    """A Separate Color node on the (data) texture ``ext[key]`` of the glTF, written to ``out``."""
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    source = doc["textures"][ext[key]["index"]]["source"]
+    view = doc["bufferViews"][doc["images"][source]["bufferView"]]
+    start = view.get("byteOffset", 0)
+    path = out / f"{mat.name}_{key}.png"
+    path.write_bytes(blob[start : start + view["byteLength"]])
+    node = nodes.new("ShaderNodeTexImage")
+    node.image = bpy.data.images.load(str(path))
+    node.image.colorspace_settings.name = "Non-Color"
+    node.interpolation = "Linear"
+    split = nodes.new("ShaderNodeSeparateColor")
+    links.new(split.inputs[0], node.outputs["Color"])
+    return split
+
+
+def wire_film(glb: str, out: Path) -> dict:
+    """What the importer leaves out, wired by hand: per material with KHR_materials_iridescence,
+    a copy of its Principled BSDF with the film (Thin Film Thickness = the thickness texture's G
+    over [minimum, maximum] nm, Thin Film IOR = iridescenceIor) mixed over the one without by
+    the weight texture's R times iridescenceFactor (glTF's (1 - w) S + w I)."""
+    doc, blob = _glb(glb)
+    wired = {}
+    for index, gmat in enumerate(doc.get("materials", [])):
+        ext = gmat.get("extensions", {}).get("KHR_materials_iridescence")
+        mat = bpy.data.materials.get(gmat.get("name", f"Material_{index}"))
+        if not ext or mat is None:
+            continue
+        nodes, links = mat.node_tree.nodes, mat.node_tree.links
+        bare = next(n for n in nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+        output = next(n for n in nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+        film = nodes.new("ShaderNodeBsdfPrincipled")
+        film.distribution, film.subsurface_method = bare.distribution, bare.subsurface_method
+        for inp, copy in zip(bare.inputs, film.inputs, strict=True):
+            if inp.is_linked:
+                links.new(copy, inp.links[0].from_socket)
+            elif hasattr(inp, "default_value"):
+                copy.default_value = inp.default_value
+
+        low = ext.get("iridescenceThicknessMinimum", 100.0)
+        high = ext.get("iridescenceThicknessMaximum", 400.0)
+        if "iridescenceThicknessTexture" in ext:
+            scale = nodes.new("ShaderNodeMapRange")
+            scale.inputs["To Min"].default_value, scale.inputs["To Max"].default_value = low, high
+            links.new(
+                scale.inputs["Value"],
+                _texture(mat, doc, blob, ext, "iridescenceThicknessTexture", out).outputs[1],
+            )
+            links.new(film.inputs["Thin Film Thickness"], scale.outputs[0])
+        else:
+            film.inputs["Thin Film Thickness"].default_value = high
+        film.inputs["Thin Film IOR"].default_value = ext.get("iridescenceIor", 1.3)
+        # Blender's Specular Tint scales the whole (film) reflection, glTF's specular colour is
+        # the F0 of the substrate under the film: the film branch gets tint 1 and, as its IOR,
+        # the index of the substrate's mean F0 (one index: Blender's film has no RGB substrate).
+        tint = film.inputs["Specular Tint"]
+        if tint.is_linked:
+            source = tint.links[0].from_socket
+            links.remove(tint.links[0])
+            links.new(film.inputs["IOR"], _ior_of_f0(nodes, links, source))
+        else:
+            f0 = min(max(DEFAULT_F0 * sum(tint.default_value[:3]) / 3.0, 1e-4), 0.9)
+            film.inputs["IOR"].default_value = (1 + math.sqrt(f0)) / (1 - math.sqrt(f0))
+        tint.default_value = (1.0, 1.0, 1.0, 1.0)
+        mix = nodes.new("ShaderNodeMixShader")
+        weight = nodes.new("ShaderNodeMath")
+        weight.operation, weight.use_clamp = "MULTIPLY", True
+        weight.inputs[1].default_value = ext.get("iridescenceFactor", 0.0)
+        if "iridescenceTexture" in ext:
+            links.new(
+                weight.inputs[0],
+                _texture(mat, doc, blob, ext, "iridescenceTexture", out).outputs[0],
+            )
+        else:
+            weight.inputs[0].default_value = 1.0
+        links.new(mix.inputs[0], weight.outputs[0])
+        links.new(mix.inputs[1], bare.outputs[0])
+        links.new(mix.inputs[2], film.outputs[0])
+        links.new(output.inputs["Surface"], mix.outputs[0])
+        wired[mat.name] = {
+            "thickness_nm": [low, high],
+            "ior": film.inputs["Thin Film IOR"].default_value,
+        }
+    return wired
+
+
 def set_scene(job: dict) -> None:
     scene = bpy.context.scene
     width, height = job["resolution"]
@@ -164,7 +291,7 @@ def set_view(view: dict) -> None:
 
 def render(engine: str, job: dict, out: Path) -> dict:
     scene = bpy.context.scene
-    if engine == "cycles":
+    if engine in ("cycles", "cycles_film"):
         scene.render.engine = "CYCLES"
         scene.cycles.device = "CPU"
         scene.cycles.samples = int(job["cycles_samples"])
@@ -216,6 +343,8 @@ def main() -> None:
             ]
     set_scene(job)
     for engine in job["engines"]:
+        if engine == "cycles_film":
+            report["film_wired"] = wire_film(job["glb"], out)
         try:
             report["engines"][engine] = render(engine, job, out)
         except Exception as exc:  # EEVEE needs a GPU context; say why it did not render
