@@ -146,6 +146,77 @@ def _describe(socket: dict) -> str:
     return " <- ".join(parts)
 
 
+def _child(bpy_python: str, job: dict, folder: Path) -> dict:
+    """Run the bpy child on ``job`` in ``folder``; its report."""
+    folder.mkdir(parents=True, exist_ok=True)
+    job = {**job, "out": str(folder)}
+    (folder / "job.json").write_text(json.dumps(job, indent=1))
+    child = subprocess.run(
+        [bpy_python, str(CHILD), str(folder / "job.json")], capture_output=True, text=True
+    )
+    (folder / "blender.log").write_text(child.stdout + child.stderr)
+    if child.returncode != 0:
+        raise SystemExit(f"error: Blender failed (log: {folder / 'blender.log'}):\n{child.stderr}")
+    return json.loads((folder / "blender.json").read_text())
+
+
+def quads(bpy_python: str, out: Path, samples: int) -> None:
+    """tests/test_gltf_threejs.py's flat quads (one material, 16×16 px, 1° field, no sky) in
+    Cycles against ``pipeline/export/iridescence.py``'s model of what a glTF viewer draws: as
+    imported (no film: the model at weight 0) and with the film wired by hand (the model)."""
+    from test_gltf_threejs import SUN, _quad
+
+    from pavonine.pipeline.export import iridescence as irid
+    from pavonine.render.imageio import read_exr
+
+    base, ior, tilts = np.array([0.1, 0.2, 0.05]), 1.56, (0.0, irid.TILT_DEG)
+    views = []
+    for tilt in tilts:
+        c = math.radians(tilt)
+        views.append(
+            {"name": f"{tilt:+.0f}", "position": [math.sin(c), 0.0, math.cos(c)],
+             "rotate_y_deg": tilt, "fov_deg": 1.0, "near": 0.1, "far": 10.0}
+        )  # fmt: skip
+    print(
+        "\nQuads (test_gltf_threejs): radiance at the centre, the model (iridescence.py) vs Cycles"
+    )
+    print(f"  {'weight, nm, roughness, F0':>28}  view  {'model, no film':>22}  "
+          f"{'as imported':>22}  {'model':>22}  {'film wired':>22}")  # fmt: skip
+    for k, (weight, thickness, roughness, f0) in enumerate(
+        [
+            (1.0, 400.0, 0.4, (0.0, 0.0, 0.0)),
+            (0.8, 550.0, 0.6, (0.0, 0.0, 0.0)),
+            (1.0, 300.0, 0.3, (0.2, 0.3, 0.1)),
+            (0.5, 250.0, 0.5, (0.35, 0.12, 0.45)),
+        ]
+    ):
+        folder = out / f"quad{k}"
+        folder.mkdir(parents=True, exist_ok=True)
+        _quad(folder / "quad.glb", base, weight, thickness, roughness, ior, f0)
+        job = {"glb": str(folder / "quad.glb"), "resolution": [16, 16], "views": views,
+               "sun": SUN, "sun_irradiance": math.pi, "sun_angle_deg": 0.53, "sky": [0, 0, 0],
+               "engines": ["cycles", "cycles_film"], "cycles_samples": samples,
+               "eevee_samples": 1, "threads": 2}  # fmt: skip
+        report = _child(bpy_python, job, folder)
+        light, seen = np.array([SUN]), irid.tilted_views(tilts)[None]
+        model = {
+            w: irid.glTF_reflectance(
+                base[None], [w], [thickness], light, seen, [roughness], ior, [f0]
+            )[0]
+            * SUN[2]
+            for w in (0.0, weight)
+        }  # reflectance factor → radiance under E = π
+        for j, view in enumerate(views):
+            drawn = [
+                read_exr(report["engines"][e]["files"][view["name"]])[0][8, 8, :3]
+                for e in ("cycles", "cycles_film")
+            ]
+            cells = [model[0.0][j], drawn[0], model[weight][j], drawn[1]]
+            text = "  ".join(f"{np.array2string(c, precision=3):>22}" for c in cells)
+            case = f"{weight}, {thickness:.0f}, {roughness}, {f0}"
+            print(f"  {case:>28}  {view['name']:>4}  {text}")
+
+
 def main() -> None:
     from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
     from test_gltf_threejs import RESOLUTION, SPP, SUN, _camera, _scene
@@ -164,6 +235,7 @@ def main() -> None:
     parser.add_argument("--cycles-samples", type=int, default=64)
     parser.add_argument("--eevee-samples", type=int, default=64)
     parser.add_argument("--engines", default=",".join(ENGINES), help="cycles,eevee,cycles_film")
+    parser.add_argument("--no-quads", action="store_true", help="skip the flat-quad check")
     args = parser.parse_args()
     if args.glb and not args.asset:
         parser.error("--glb needs the --asset it was exported from (for the zones and reference)")
@@ -210,7 +282,6 @@ def main() -> None:
         )
     job = {
         "glb": str(glb),
-        "out": str(out / "blender"),
         "resolution": [width, height],
         "views": views,
         "sun": SUN,
@@ -222,15 +293,8 @@ def main() -> None:
         "eevee_samples": args.eevee_samples,
         "threads": 2,
     }
-    (out / "job.json").write_text(json.dumps(job, indent=1))
     started = time.perf_counter()
-    child = subprocess.run(
-        [bpy_python, str(CHILD), str(out / "job.json")], capture_output=True, text=True
-    )
-    (out / "blender.log").write_text(child.stdout + child.stderr)
-    if child.returncode != 0:
-        raise SystemExit(f"error: Blender failed (log: {out / 'blender.log'}):\n{child.stderr}")
-    report = json.loads((out / "blender" / "blender.json").read_text())
+    report = _child(bpy_python, job, out / "blender")
     print(f"Blender {report['blender']} (bpy): {time.perf_counter() - started:.0f} s")
 
     print("\nWhat the importer connected (Principled BSDF of each material):")
@@ -284,6 +348,8 @@ def main() -> None:
                 b = linear_srgb_to_lab(tilted[e][tilted_masks[k]][:, :3].mean(axis=0))
                 moved.append(f"{ZONE_NAMES[k]} {float(delta_e2000(a, b)):.1f}")
         print(f"{e}: ΔE2000 face-on -> tilted within each ring: {', '.join(moved)}")
+    if not args.no_quads:
+        quads(bpy_python, out / "quads", args.cycles_samples)
 
 
 if __name__ == "__main__":
