@@ -177,7 +177,8 @@ def quads(bpy_python: str, out: Path, samples: int) -> None:
     """tests/test_gltf_threejs.py's flat quads (one material, 16×16 px, 1° field, no sky) in
     Cycles against ``pipeline/export/iridescence.py``'s model of what a glTF viewer draws: as
     imported (no film: the model at weight 0) and with the film wired by hand (the model)."""
-    from test_gltf_threejs import SUN, _quad
+    from gltf_browser import SUN
+    from test_gltf_threejs import _quad
 
     from pavonine.pipeline.export import iridescence as irid
     from pavonine.render.imageio import read_exr
@@ -231,8 +232,11 @@ def quads(bpy_python: str, out: Path, samples: int) -> None:
 
 
 def main() -> None:
+    from gltf_browser import SUN
+    from gltf_browser import scene_camera as _camera
+    from gltf_browser import tilted_scene as _scene
     from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
-    from test_gltf_threejs import RESOLUTION, SPP, SUN, _camera, _scene
+    from test_gltf_threejs import RESOLUTION, SPP
 
     from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
     from pavonine.pipeline.cli import cli
