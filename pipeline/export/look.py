@@ -27,7 +27,7 @@ from pavonine.pipeline.export.iridescence import VIEWS, fit_base, fit_error, fit
 #: The film search's atlas resolution at most (texels per side).
 FIT_RESOLUTION = 128
 #: Film indices the fit tries, on an eighth of the searched texels: from water's to keratin's
-#: (1.56, the barbule's cortex; Leertouwer et al. 2011).
+#: (the barbule's cortex: 1.56 at 500 nm, materials/dispersion.py).
 IOR_CANDIDATES = (1.33, 1.45, 1.56)
 #: Side (searched texels) of the median that picks each texel's film branch.
 MEDIAN_SIZE = 5
@@ -102,6 +102,28 @@ def _film_of(film, index: np.ndarray) -> tuple:
     )
 
 
+def _best_films(found: LookTargets, film, candidates: np.ndarray, film_ior: float):
+    """Per texel of ``found``, the one of its ``candidates`` (searched texels of ``film``,
+    ``(n, c)``) whose film, completed by its least-squares base, fits the texel's reflectance
+    best: that candidate and the base. Each distinct candidate of a texel is tried once."""
+    target, light, views = found.target, found.light, found.views
+    pick = candidates[:, 0].copy()
+    best = np.full(len(target), np.inf)
+    base = np.zeros((len(target), 3))
+    for j in range(candidates.shape[1]):
+        new = np.all(candidates[:, :j] != candidates[:, j : j + 1], axis=1)
+        at, candidate = np.flatnonzero(new), candidates[new, j]
+        weight, thickness, roughness, substrate = _film_of(film, candidate)
+        fit = fit_base(
+            target[at], light[at], views[at], weight, thickness, roughness, film_ior, substrate
+        )
+        error = fit_error(fit.reflectance, target[at])
+        better = error < best[at]
+        won = at[better]
+        pick[won], best[won], base[won] = candidate[better], error[better], fit.base[better]
+    return pick, base
+
+
 def _best_index(target, light, views) -> float:
     """The film index (one of :data:`IOR_CANDIDATES`) whose free fit of every eighth searched
     texel leaves the smallest mean relative residual."""
@@ -154,23 +176,15 @@ def fitted_look(material, meshes: list, resolution: int) -> FittedLook:
     sub = (target[subset], light[subset], views[subset], film_ior)
     first = fit_film(*sub)
     film = fit_film(*sub, prior_nm=_local_median(texels, subset, first.thickness_nm, step))
-    pick = nearest_fit
-    best = np.full(len(target), np.inf)
-    for candidate in _around(texels, subset, step, nearest_fit).T:
-        weight, thickness, roughness, substrate = _film_of(film, candidate)
-        fit = fit_base(target, light, views, weight, thickness, roughness, film_ior, substrate)
-        error = fit_error(fit.reflectance, target)
-        better = error < best
-        pick, best = np.where(better, candidate, pick), np.where(better, error, best)
+    pick, base = _best_films(found, film, _around(texels, subset, step, nearest_fit), film_ior)
     weight, thickness, roughness, substrate = _film_of(film, pick)
-    fit = fit_base(target, light, views, weight, thickness, roughness, film_ior, substrate)
     nearest = nearest_covered(texels.covered)
 
     def image(values: np.ndarray) -> np.ndarray:
         return dilate(scatter(texels, values), nearest)
 
     return FittedLook(
-        base_rgba=image(np.concatenate([fit.base, inputs["alpha"][:, None]], axis=1)),
+        base_rgba=image(np.concatenate([base, inputs["alpha"][:, None]], axis=1)),
         weight=image(weight),
         thickness_nm=image(thickness),
         roughness=image(roughness),

@@ -50,7 +50,9 @@ ST_PRIMVAR = "st"
 OPACITY_THRESHOLD = 0.5
 
 
-def _usd_value(inp) -> Any:
+def mtlx_input_value(inp) -> Any:
+    """The USD value of a MaterialX input ``inp`` (a ``filename`` as a relative
+    ``Sdf.AssetPath``, vectors and colours as their ``Gf`` types, the rest as it is)."""
     value = inp.getValue()
     kind = inp.getType()
     if kind == "filename":
@@ -88,7 +90,7 @@ def author_mtlx_network(stage: Usd.Stage, path: Sdf.Path | str, doc, material_na
             if upstream is not None:
                 usd_input.ConnectToSource(define(upstream))
                 continue
-            usd_input.Set(_usd_value(inp))
+            usd_input.Set(mtlx_input_value(inp))
             if inp.getColorSpace():
                 usd_input.GetAttr().SetColorSpace(inp.getColorSpace())
         return output

@@ -27,7 +27,7 @@ _LAYERS: dict[tuple[str, float], Sdf.Layer] = {}  # kept alive: references name 
 
 def translate(doc, stage: Usd.Stage, material_name: str, root: str = "/Looks") -> UsdShade.Material:
     """The UsdShade Material for ``doc``'s ``surfacematerial`` ``material_name`` (see module doc)."""
-    from pavonine.pipeline.shading.usd import SDF_TYPES, _usd_value
+    from pavonine.pipeline.shading.usd import SDF_TYPES, mtlx_input_value
 
     material = UsdShade.Material.Define(stage, f"{root}/{prim_name(material_name)}")
     outputs: dict[tuple[str, str, str], UsdShade.Output] = {}
@@ -52,7 +52,7 @@ def translate(doc, stage: Usd.Stage, material_name: str, root: str = "/Looks") -
                 path = str(folder / name)  # once, as usdMtlx read usd-wg's MaterialXTest
             usd_input.Set(Sdf.AssetPath(path))
         else:
-            usd_input.Set(_usd_value(inp))
+            usd_input.Set(mtlx_input_value(inp))
         space = inp.getActiveColorSpace()
         if space and inp.getType() == "filename":
             usd_input.GetAttr().SetColorSpace(space)
