@@ -156,13 +156,11 @@ def scene_camera(scene: Path) -> dict:
 @dataclass
 class ZoneComparison:
     """Per ocellus zone: ``delta_e`` (ΔE2000 of the mean colours), ``means`` (render's, three.js'
-    linear RGB) and ``pixels``; and both frames (``render``, ``three``)."""
+    linear RGB) and ``pixels``."""
 
     delta_e: dict
     means: dict
     pixels: dict
-    render: np.ndarray
-    three: np.ndarray
 
 
 def compare_zones(glb: Path, asset: Path, tilt_deg: float, folder: Path, resolution, spp: int):
@@ -193,4 +191,4 @@ def compare_zones(glb: Path, asset: Path, tilt_deg: float, folder: Path, resolut
     shown = np.clip(render.rgb, 0.0, None)
     means = {k: (shown[m].mean(axis=0), three[m].mean(axis=0)) for k, m in masks.items()}
     pixels = {k: int(m.sum()) for k, m in masks.items()}
-    return ZoneComparison(zone_delta_e(shown, three, masks), means, pixels, render.rgb, three)
+    return ZoneComparison(zone_delta_e(shown, three, masks), means, pixels)

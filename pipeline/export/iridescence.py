@@ -163,9 +163,21 @@ def ggx_lobe(light: np.ndarray, view: np.ndarray, roughness: np.ndarray) -> np.n
     nv = np.clip(view[..., 2], 0.0, 1.0)
     nh = np.clip(half[..., 2], 0.0, 1.0)
     d = a2 / (math.pi * (nh**2 * (a2 - 1.0) + 1.0) ** 2)
+    return math.pi * d * smith_visibility(nl, nv, a2)
+
+
+def smith_visibility(nl: np.ndarray, nv: np.ndarray, a2) -> np.ndarray:
+    """Height-correlated Smith visibility of three.js' ``V_GGX_SmithCorrelated`` at ``α² = a2``
+    (Heitz 2014 Eq. 99, the 1 / (4 n·l n·v) included)."""
     gv = nl * np.sqrt(a2 + (1.0 - a2) * nv**2)
     gl = nv * np.sqrt(a2 + (1.0 - a2) * nl**2)
-    return math.pi * d * 0.5 / np.maximum(gv + gl, 1e-6)
+    return 0.5 / np.maximum(gv + gl, 1e-6)
+
+
+def compensation(f0, albedo):
+    """three.js' multiple-scattering compensation of direct light, ``1 + F0 (1/E − 1)`` (Turquin
+    2019 Eq. 16), for the substrate's ``f0`` and the lobe's white-furnace ``albedo`` ``E``."""
+    return 1.0 + f0 * (1.0 / albedo - 1.0)
 
 
 @lru_cache(maxsize=64)
@@ -185,8 +197,7 @@ def _albedo_table(roughness: float) -> np.ndarray:
         vh = half @ view
         light = 2.0 * vh[:, None] * half - view
         nl = light[:, 2]
-        a2 = alpha**2
-        vis = 0.5 / (nl * math.sqrt(a2 + (1 - a2) * nv * nv) + nv * np.sqrt(a2 + (1 - a2) * nl**2))
+        vis = smith_visibility(nl, nv, alpha**2)
         out[i] = np.mean(np.where(nl > 0.0, 4.0 * vis * nl * vh / cos_h, 0.0))
     return out
 
@@ -235,7 +246,7 @@ def glTF_reflectance(
     f0 = f0[:, None, :]
     rough = np.asarray(roughness, dtype=np.float64)[:, None]
     lobe = ggx_lobe(light[:, None, :], views, rough)[..., None]
-    energy = 1.0 + f0 * (1.0 / specular_albedo(rough, views[..., 2])[..., None] - 1.0)
+    energy = compensation(f0, specular_albedo(rough, views[..., 2])[..., None])
     dielectric = schlick(f0, 1.0, _half_cosines(light, views)[..., None])
     film = film_fresnel(views[..., 2], film_ior, np.asarray(thickness_nm)[:, None], f0)
     w = np.asarray(weight, dtype=np.float64)[:, None, None]
@@ -282,9 +293,9 @@ def _search_chunk(rho, light, views, tables, grids, far, view_weights):
 
     Per channel, substrate ``f`` and thickness ``t`` Eq. (1) is ``ρ_k ≈ a_k b + p_k + w q_k``
     with ``a = 1 − S``, ``p = P S``, ``q = P (I − S)`` and ``P = π D V M``; the error
-    ``Σ_k u_k (a_k b + p_k − ρ_k + w q_k)²`` (``u = view weight / (ρ + ERROR_FLOOR)²``) is expanded in
-    sums over the views, so each ``w`` costs arrays of ``(m, T, F, 3)``; ``b`` is its least-squares
-    value, clipped to [0, 1]. Channels pick their substrates independently within each of
+    ``Σ_k u_k (a_k b + p_k − ρ_k + w q_k)²`` (``u = view weight / (ρ + ERROR_FLOOR)²``) is
+    expanded in sums over the views, so each ``w`` costs arrays of ``(m, T, F, 3)``; ``b`` is its
+    least-squares value, clipped to [0, 1]. Channels pick their substrates independently within each of
     :func:`substrate_grid`'s two sides."""
     m = len(rho)
     u = view_weights[None, :, None] / (rho + ERROR_FLOOR) ** 2  # (m, k, 3)
@@ -302,20 +313,21 @@ def _search_chunk(rho, light, views, tables, grids, far, view_weights):
         film = _at_views(table, views[..., 2])  # (m, k, T, F, 3)
         dielectric = schlick(f0[None, None, :], 1.0, vh[..., None])[..., None]  # (m, k, F, 1)
         a = 1.0 - dielectric
+        uf = u[:, :, None, :]  # (m, k, 1, 3)
+        ua = uf * a
+        aa = (ua * a).sum(axis=1)  # (m, F, 3)
         for r in ROUGHNESS_GRID:
             lobe = ggx_lobe(light[:, None, :], views, np.full((m, 1), r))
             albedo = specular_albedo(np.full(views.shape[:2], r), views[..., 2])
-            power = lobe[..., None, None] * (
-                1.0 + f0[None, None, :, None] * (1.0 / albedo[..., None, None] - 1.0)
+            power = lobe[..., None, None] * compensation(
+                f0[None, None, :, None], albedo[..., None, None]
             )
             p = power * dielectric - rho[:, :, None, :]  # p − ρ: (m, k, F, 3)
             q = power[:, :, None] * (film - dielectric[:, :, None])  # (m, k, T, F, 3)
-            ua = u[:, :, None, :] * a
-            aa = (ua * a).sum(axis=1)  # (m, F, 3)
             ap = (ua * p).sum(axis=1)
-            pp = (u[:, :, None, :] * p * p).sum(axis=1)
+            pp = (uf * p * p).sum(axis=1)
             aq = np.einsum("mkfc,mktfc->mtfc", ua, q)
-            pq = np.einsum("mkfc,mktfc->mtfc", u[:, :, None, :] * p, q)
+            pq = np.einsum("mkfc,mktfc->mtfc", uf * p, q)
             qq = np.einsum("mkc,mktfc->mtfc", u, q * q)
             for w in WEIGHT_GRID:
                 lin = ap[:, None] + w * aq  # (m, T, F, 3)
@@ -337,8 +349,9 @@ def _search_chunk(rho, light, views, tables, grids, far, view_weights):
 
 
 def fit_error(reflectance: np.ndarray, target: np.ndarray, view_weights=None) -> np.ndarray:
-    """The search's error per texel: ``Σ_k g_k ((ρ̂_k − ρ_k) / (ρ_k + ERROR_FLOOR))²`` over views and
-    channels of ``(n, k, 3)`` arrays, ``g`` = ``view_weights`` (default :data:`VIEW_WEIGHTS`)."""
+    """The search's error per texel: ``Σ_k g_k ((ρ̂_k − ρ_k) / (ρ_k + ERROR_FLOOR))²`` over views
+    and channels of ``(n, k, 3)`` arrays, ``g`` = ``view_weights`` (default
+    :data:`VIEW_WEIGHTS`)."""
     g = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, dtype=np.float64)
     relative = (reflectance - target) / (target + ERROR_FLOOR)
     return (g[None, :, None] * relative * relative).sum(axis=(1, 2))

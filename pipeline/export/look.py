@@ -3,10 +3,10 @@ the reference light and the face-on and tilted views (:mod:`pavonine.pipeline.ba
 fitted by :func:`pavonine.pipeline.export.iridescence.fit_film` to what a glTF viewer draws
 (base colour + ``KHR_materials_iridescence`` over a ``KHR_materials_specular`` substrate).
 
-The film (weight, thickness, roughness, substrate) is searched on every ``step``-th texel of the atlas in
-each direction (at most :data:`FIT_RESOLUTION`² texels: the search is the costly part) and
-handed to every texel from the searched one near it (its nearest or a corner of its grid cell)
-that fits its own reflectance best. The search runs twice: freely, then within
+The film (weight, thickness, roughness, substrate) is searched on every ``step``-th texel of
+the atlas in each direction (at most :data:`FIT_RESOLUTION`² texels: the search is the costly
+part) and handed to every texel from the searched one near it (its nearest or a corner of its
+grid cell) that fits its own reflectance best. The search runs twice: freely, then within
 30 nm of the median of the free search's thicknesses around the texel, so that neighbouring
 texels sit on one branch of the film's colour cycle (a texture filter averaging thicknesses of
 two branches would draw a third colour); each texel's base colour is then fitted at full
@@ -126,7 +126,7 @@ def _best_films(found: LookTargets, film, candidates: np.ndarray, film_ior: floa
 
 def _best_index(target, light, views) -> float:
     """The film index (one of :data:`IOR_CANDIDATES`) whose free fit of every eighth searched
-    texel leaves the smallest mean relative residual."""
+    texel leaves the smallest mean error (:func:`fit_error`)."""
     few = slice(None, None, 8)
     errors = {}
     for ior in IOR_CANDIDATES:
