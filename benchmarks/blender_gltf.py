@@ -4,7 +4,7 @@ render of the same camera and sun, per ocellus zone, face-on and tilted 40°.
 
 The setup is tests/test_gltf_threejs.py's, with Blender in place of three.js: the test eye
 (256-px maps, seed 4, as tests/conftest.py ``convert_eye`` builds it) exported with
-``pavonine export``; ``assets/scenes/eye_feather_sun.usda`` pointed at it, its camera turned by
+``pavonine export --eye`` (the scene's camera); ``assets/scenes/eye_feather_sun.usda`` pointed at it, its camera turned by
 ``pipeline.export.iridescence.TILT_DEG`` about +Y for the tilted view; Pavonine's render at
 128×192, 32 spp (``render_stage``). Blender gets the USD camera (position, turn, vertical field
 of view, clip range; placed in Blender's Z-up frame as the importer converts glTF's Y-up one), a
@@ -266,9 +266,11 @@ def main() -> None:
         glb = Path(args.glb).resolve()
     else:
         from click.testing import CliRunner
+        from gltf_browser import scene_eye
 
         glb = out / f"{usd.stem}.glb"
-        result = CliRunner().invoke(cli, ["export", str(usd.parent), "-o", str(glb)])
+        eye = [str(v) for v in scene_eye()]  # fitted for the scene's camera, as the test does
+        result = CliRunner().invoke(cli, ["export", str(usd.parent), "-o", str(glb), "--eye", *eye])
         if result.exit_code != 0:
             raise SystemExit(f"error: pavonine export failed:\n{result.output}")
     width, height = RESOLUTION

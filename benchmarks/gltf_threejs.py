@@ -1,12 +1,17 @@
 """The exported ``.glb`` in three.js against ``pavonine render``, per ocellus zone, for any feather
 asset: what tests/test_gltf_threejs.py asserts on the 256-px test eye, here on the shipped eye
-by default (1024² textures, 99k triangles) and at any resolution. It exports the asset, renders
-the shipped scene (assets/scenes/eye_feather_sun.usda: its camera, sun and sky) face-on and
-turned 40°, draws the ``.glb`` with three.js 0.187 in headless Chromium (software WebGL; needs
-``.ci/node_modules``, installed by ``.ci/setup``) and prints ΔE2000 of each zone's mean colour;
-the side-by-side frames go to ``--out``.
+by default (1024² textures, 99k triangles) and at any resolution (by default the scene's own,
+512×768). It exports the asset, renders the shipped scene (assets/scenes/eye_feather_sun.usda:
+its camera, sun and sky) face-on and turned 40°, draws the ``.glb`` with three.js 0.187 in
+headless Chromium (software WebGL; needs ``.ci/node_modules``, installed by ``.ci/setup``) and
+prints ΔE2000 of each zone's mean colour; the side-by-side frames go to ``--out``.
+``--fit-eye scene`` (the default) exports the look fitted for the scene's camera
+(``pavonine export --eye``), as the test does; ``framing`` for the export's default viewer
+(where ``pavonine view`` frames the asset); ``far`` for a camera 1000 times farther than the
+scene's (nearly parallel views).
 
-    python benchmarks/gltf_threejs.py [--asset assets/feathers/eye_feather] [--resolution 128x192]
+    python benchmarks/gltf_threejs.py [--asset assets/feathers/eye_feather] [--resolution 512x768]
+        [--fit-eye scene|framing|far]
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 
-from gltf_browser import compare_zones  # noqa: E402
+from gltf_browser import compare_zones, scene_eye  # noqa: E402
 from ocellus_zones import ZONE_NAMES  # noqa: E402
 
 
@@ -30,9 +35,12 @@ def main() -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--asset", type=Path, default=REPO / "assets/feathers/eye_feather")
-    parser.add_argument("--resolution", default="128x192", help="WIDTHxHEIGHT")
+    parser.add_argument(
+        "--resolution", default="512x768", help="WIDTHxHEIGHT [default: the scene's own]"
+    )
     parser.add_argument("--spp", type=int, default=32)
     parser.add_argument("--out", type=Path, default=None, help="folder for the frames")
+    parser.add_argument("--fit-eye", choices=("scene", "framing", "far"), default="scene")
     args = parser.parse_args()
     resolution = tuple(int(v) for v in args.resolution.split("x"))
     out = args.out or Path(tempfile.mkdtemp(prefix="pavonine-gltf-threejs-"))
@@ -41,6 +49,9 @@ def main() -> None:
     glb = out / f"{asset.name}.glb"
     start = time.perf_counter()
     command = [sys.executable, "-m", "pavonine.pipeline.cli", "export", str(asset), "-o", str(glb)]
+    if args.fit_eye != "framing":
+        scale = 1.0 if args.fit_eye == "scene" else 1000.0
+        command += ["--eye", *(str(v * scale) for v in scene_eye())]
     subprocess.run([*command, "-q"], check=True)
     print(f"export: {time.perf_counter() - start:.1f} s wall")
     rows = {}
@@ -48,7 +59,9 @@ def main() -> None:
         found = compare_zones(glb, asset / f"{asset.name}.usd", tilt, out, resolution, args.spp)
         rows[tilt] = found
     zones = [k for k in (5, 4, 3, 2, 1) if all(k in r.delta_e for r in rows.values())]
-    print(f"{args.resolution}, {args.spp} spp: ΔE2000 per zone (render vs three.js)")
+    print(
+        f"{args.resolution}, {args.spp} spp, look fitted for the {args.fit_eye} eye: ΔE2000 per zone"
+    )
     print(f"{'zone':>16}  " + "  ".join(f"{t:+.0f}°".rjust(7) for t in rows))
     for k in zones:
         cells = "  ".join(f"{r.delta_e[k]:7.2f}" for r in rows.values())

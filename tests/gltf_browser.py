@@ -153,6 +153,15 @@ def scene_camera(scene: Path) -> dict:
     return {"fov_deg": fov, "near": near, "far": far, "position": [v * scale for v in translate]}
 
 
+def scene_eye(scene: Path = SCENE) -> list[float]:
+    """The shipped scene camera's position in the scene's units, which are those of the feather
+    asset it references at its origin: the viewer ``pavonine export --eye`` fits the look for."""
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(scene))
+    return list(stage.GetPrimAtPath("/World/Camera").GetAttribute("xformOp:translate").Get())
+
+
 @dataclass
 class ZoneComparison:
     """Per ocellus zone: ``delta_e`` (ΔE2000 of the mean colours), ``means`` (render's, three.js'

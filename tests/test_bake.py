@@ -80,6 +80,31 @@ def test_texels_interpolate_the_mesh_and_cover_its_atlas():
         texels.barb, mesh.barb_tangent[0]
     )
     assert np.allclose(texels.across, [1.0, 0.0, 0.0])  # ∂P/∂u: the feather's +u is +X
+    # the surface point: (feather coordinate − ½)·10 cm in the plane, turned 30° about X
+    flat = np.column_stack([(texels.feather_uv - 0.5) * 10.0, np.zeros(len(texels.index))])
+    t = math.radians(30.0)
+    turn = np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+    assert np.allclose(texels.position, flat @ turn.T, atol=1e-9)
+
+
+def test_per_texel_views_give_each_texel_the_reflectance_at_its_own_view():
+    """A viewer at a finite distance: ``reflectance_at_views`` given one view per texel agrees,
+    texel by texel, with the same view given to every texel (the path the bake's reference view
+    and the tests above take), melanin share and all."""
+    params = preset("paper-table1")
+    maps = uniform_maps(ocellar=1.0 - 2 / 5, gradation=0.5, angle=0.3, melanin=0.6, alpha=1.0)
+    texels = surface_texels(flat_patch(), 8)
+    rng = np.random.default_rng(11)
+    views = rng.normal(size=(len(texels.index), 2, 3)) * [0.4, 0.4, 0.1] + [0.0, 0.0, 1.0]
+    views[-1, 1] *= [1.0, 1.0, -1.0]  # one view from behind the vane: no melanin there
+    views /= np.linalg.norm(views, axis=-1, keepdims=True)
+    light = appearance.REFERENCE_LIGHT
+    each, _ = appearance.reflectance_at_views(texels, maps, params, light, views)
+    assert each.shape == (len(texels.index), 2, 3)
+    for i in (0, len(views) // 2, len(views) - 1):
+        shared, _ = appearance.reflectance_at_views(texels, maps, params, light, views[i])
+        assert np.allclose(each[i], shared[i], rtol=1e-6, atol=1e-9)
+    assert np.ptp(each[:, 0, 1]) > 1e-3  # the views differ, and so do the colours
 
 
 def test_dilation_fills_every_texel_from_the_nearest_covered_one():

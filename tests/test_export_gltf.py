@@ -92,9 +92,10 @@ def test_glb_carries_the_baked_feather(glb, eye_asset, tmp_path):
     # The substrate is coloured (channels chosen apart) and varies over the feather.
     assert np.ptp(substrate[opaque], axis=0).min() > 0.2
     assert np.mean(np.ptp(substrate[opaque], axis=1) > 0.05) > 0.1
-    # The film's texture has no mipmaps (a mean thickness draws another colour); the others do.
+    # The film's texture is sampled nearest (a mean thickness draws another colour); the others
+    # are mipmapped.
     sampler = doc.samplers[doc.textures[iridescence["iridescenceTexture"]["index"]].sampler]
-    assert sampler.minFilter == pygltflib.LINEAR
+    assert sampler.minFilter == sampler.magFilter == pygltflib.NEAREST  # no mean thickness
     base_sampler = doc.textures[feather.pbrMetallicRoughness.baseColorTexture.index].sampler
     assert doc.samplers[base_sampler].minFilter == pygltflib.LINEAR_MIPMAP_LINEAR
     assert rachis.alphaMode == "OPAQUE" and len(rachis.pbrMetallicRoughness.baseColorFactor) == 4
@@ -162,7 +163,13 @@ def test_validator_script_catches_a_broken_file(glb, tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("args", "field"), [(("-o", "x.gltf"), "x.gltf"), (("--lod", "ultra"), "--lod")]
+    ("args", "field"),
+    [
+        (("-o", "x.gltf"), "x.gltf"),
+        (("--lod", "ultra"), "--lod"),
+        (("--eye", "0", "15", "-1"), "--eye"),  # inside the feather's bounds
+        (("--eye", "0", "nan", "36"), "--eye"),
+    ],
 )
 def test_bad_input_is_one_line(eye_asset, tmp_path, args, field):
     argv = ["export", eye_asset.parent, "-o", tmp_path / "x.glb", *args]

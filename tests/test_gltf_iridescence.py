@@ -115,3 +115,61 @@ def test_fit_recovers_a_film_it_was_given():
         target, light, views, fit.weight, fit.thickness_nm, fit.roughness, 1.56, fit.substrate
     )
     assert np.allclose(again.base, fit.base, atol=0.01)
+
+
+def test_base_of_a_given_film_is_the_one_the_search_keeps_where_no_film_fits_exactly():
+    """Where the target is not a glTF look (here: one scaled view by view), the base that
+    completes a film is a compromise between the views; :func:`fit_base` must weigh them as the
+    search does (its relative error, the view weights), or the texels handed a film get another
+    base than the search chose (an unweighted base shifted the eye's outer ring by ΔE 3 face-on)."""
+    rng = np.random.default_rng(7)
+    n = 40
+    light = np.tile(irid.tilted_views([25.0]), (n, 1))
+    views = np.tile(irid.VIEWS[None], (n, 1, 1))
+    film = irid.glTF_reflectance(
+        rng.uniform(0.05, 0.3, (n, 3)),
+        rng.choice(irid.WEIGHT_GRID, n),
+        rng.choice(np.arange(200.0, 800.0, irid.FREE_STEP_NM), n),
+        light,
+        views,
+        rng.choice(irid.ROUGHNESS_GRID[:4], n),
+        1.45,
+        np.zeros((n, 3)),
+    )
+    target = film * rng.uniform(0.3, 3.0, (n, len(irid.VIEWS), 1))
+    fit = irid.fit_film(target, light, views, 1.45)
+    again = irid.fit_base(
+        target, light, views, fit.weight, fit.thickness_nm, fit.roughness, 1.45, fit.substrate
+    )
+    assert np.allclose(again.base, fit.base, atol=0.01)
+    assert np.allclose(
+        irid.fit_error(again.reflectance, target),
+        irid.fit_error(fit.reflectance, target),
+        rtol=0.05,
+    )
+    assert np.mean(irid.fit_error(fit.reflectance, target)) > 0.05  # not an exact fit
+
+
+def test_viewer_views_turn_the_eye_about_the_vertical_and_tend_to_the_distant_views():
+    """The views a viewer at a finite distance gives the fit (pipeline/export/look.py): toward the
+    eye, face-on and turned by each fit tilt about the vertical through the pivot; from far
+    away, the distant viewer's :data:`~pavonine.pipeline.export.iridescence.VIEWS`."""
+    from pavonine.pipeline.export.look import viewer_views
+
+    points = np.array([[0.0, 0.0, 0.0], [3.0, 22.0, -1.0]])
+    pivot = np.array([0.5, 15.0, -1.0])
+    far = viewer_views(points, pivot + np.array([0.0, 0.0, 1e7]), pivot)
+    assert np.allclose(far, irid.VIEWS[None], atol=1e-5)
+    near = viewer_views(points, (0.0, 17.0, 36.0), pivot)
+    face = irid.FIT_TILTS_DEG.index(0.0)
+    toward = np.array([-3.0, -5.0, 37.0])
+    assert np.allclose(near[1, face], toward / np.linalg.norm(toward))
+    # turned by TILT_DEG about +Y through the pivot: the eye keeps its height and its distance
+    # from the axis, and moves to the feather's left (−X) for a negative tilt
+    tilted = irid.FIT_TILTS_DEG.index(irid.TILT_DEG)
+    eye = points[0] + near[0, tilted] * (17.0 / near[0, tilted, 1])
+    assert np.isclose(np.hypot(*(eye - pivot)[[0, 2]]), np.hypot(-0.5, 37.0))
+    assert eye[0] < 0.0
+    angle = np.degrees(np.arctan2(eye[0] - pivot[0], eye[2] - pivot[2]))
+    start = np.degrees(np.arctan2(-0.5, 37.0))
+    assert np.isclose(angle - start, irid.TILT_DEG)

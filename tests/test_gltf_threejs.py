@@ -4,7 +4,9 @@ face-on and tilted (``pipeline.export.iridescence.TILT_DEG`` about the feather's
 per ocellus zone (tests/ocellus_zones.py), CIE ΔE2000 of the mean colours, the render taken as a
 display shows it (negative, out-of-gamut components clipped, as ``pavonine render --png`` does).
 
-Every zone within ΔE 5, as the issue asks (measured: docs/pipeline.md, *glTF export*).
+The ``.glb`` is exported for the scene's camera (``pavonine export --eye``: the look is fitted
+to the views from there). Every zone within ΔE 5, as the issue asks (measured:
+docs/pipeline.md, *glTF export*).
 
 And three.js draws what ``pipeline/export/iridescence.py`` says it draws (the model the fit
 inverts): a flat quad of one material, free-standing film or over a coloured substrate, within
@@ -19,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gltf_browser import SUN, THREE, chromium, compare_zones, draw, page_view
+from gltf_browser import SUN, THREE, chromium, compare_zones, draw, page_view, scene_eye
 from ocellus_zones import ZONE_NAMES
 
 from pavonine.pipeline.export import iridescence as irid
@@ -126,7 +128,10 @@ def test_exported_glb_in_threejs_matches_the_render_face_on_and_tilted(eye_asset
     from pavonine.pipeline.cli import cli
 
     glb = tmp_path / "eye_feather.glb"
-    result = CliRunner().invoke(cli, ["export", str(eye_asset.parent), "-o", str(glb)])
+    eye = [str(v) for v in scene_eye()]  # the look fitted for the scene's camera
+    result = CliRunner().invoke(
+        cli, ["export", str(eye_asset.parent), "-o", str(glb), "--eye", *eye]
+    )
     assert result.exit_code == 0, result.output
     drawn = {}
     for tilt in (0.0, irid.TILT_DEG):

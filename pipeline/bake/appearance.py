@@ -253,16 +253,31 @@ def _texel_inputs(texels: SurfaceTexels, maps: Mapping[str, np.ndarray], params)
 
 def _reflectance(params, inputs: dict, light: np.ndarray, view: np.ndarray):
     """The model's reflectance factor ``π f`` (linear Rec. 709, unclipped) of every texel for a
-    distant ``light`` and ``view`` (object space), and the structural part's :class:`Structure`."""
+    distant ``light`` (object space) and a ``view`` (object space: one direction ``(3,)``, or one
+    per texel ``(n, 3)``), and the structural part's :class:`Structure`."""
     frames = inputs["frames"]
-    found = structure(params, inputs["k"], inputs["gradation"], frames @ light, frames @ view)
+    local_view = frames @ view if view.ndim == 1 else np.einsum("nij,nj->ni", frames, view)
+    found = structure(params, inputs["k"], inputs["gradation"], frames @ light, local_view)
     structural = colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, found.spectra)
-    melanin = optics.model_for(params).brdf(
-        light, view, WAVELENGTHS_NM, 0, 0.0, structural_share=0.0
-    )
-    melanin_rgb = colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, math.pi * melanin)
+    model = optics.model_for(params)
+
+    def melanin_rgb(toward: np.ndarray) -> np.ndarray:
+        melanin = model.brdf(light, toward, WAVELENGTHS_NM, 0, 0.0, structural_share=0.0)
+        return colour.reflectance_to_linear_srgb(WAVELENGTHS_NM, math.pi * melanin)
+
+    if view.ndim == 1:
+        melanin = melanin_rgb(view)
+    else:
+        # The melanin term is Lambertian, ρ/π on the light's side and 0 behind (paper §3.3.6,
+        # materials/brdf.py feather_brdf): it depends on a view only through its side, so the
+        # views straight out of either side serve every texel.
+        front, back = (
+            melanin_rgb(np.array([0.0, 0.0, 1.0])),
+            melanin_rgb(np.array([0.0, 0.0, -1.0])),
+        )
+        melanin = np.where(view[:, 2:3] > 0.0, front, back)
     share = inputs["share"][:, None]
-    return share * structural + (1.0 - share) * melanin_rgb, found
+    return share * structural + (1.0 - share) * melanin, found
 
 
 def reflectance_at_views(
@@ -272,10 +287,17 @@ def reflectance_at_views(
     light: np.ndarray,
     views: np.ndarray,
 ) -> tuple[np.ndarray, dict]:
-    """``(n, len(views), 3)``: every covered texel's reflectance factor ``π f`` (linear Rec. 709,
-    unclipped) for the distant ``light`` and each of ``views`` (object-space unit vectors toward
-    the light and the viewer), as :func:`texel_appearance` computes it for the reference pair;
-    and the texels' inputs (``alpha``, ``share``, ``frames``: rows tangent, bitangent, normal)."""
+    """``(n, k, 3)``: every covered texel's reflectance factor ``π f`` (linear Rec. 709,
+    unclipped) for the distant ``light`` and ``k`` views (object-space unit vectors toward the
+    light and the viewer: ``views`` ``(k, 3)`` the same for every texel, or ``(n, k, 3)`` one
+    set per texel, as a viewer at a finite distance sees them), as :func:`texel_appearance`
+    computes it for the reference pair; and the texels' inputs (``alpha``, ``share``,
+    ``frames``: rows tangent, bitangent, normal)."""
     inputs = _texel_inputs(texels, maps, params)
-    found = [_reflectance(params, inputs, light, view)[0] for view in views]
+    views = np.asarray(views, dtype=np.float64)
+    per_texel = views.ndim == 3
+    found = [
+        _reflectance(params, inputs, light, views[:, j] if per_texel else views[j])[0]
+        for j in range(views.shape[-2])
+    ]
     return np.stack(found, axis=1), inputs

@@ -24,8 +24,9 @@ class SurfaceTexels:
 
     ``index``: flat texel indices (``row · resolution + column``); the other arrays have one
     row per covered texel: ``feather_uv`` (map coordinates), unit ``normal``, unit
-    ``barb`` (barb direction in the surface) and unit ``across`` (the feather's +u direction,
-    ``∂P/∂u``, in the surface).
+    ``barb`` (barb direction in the surface), unit ``across`` (the feather's +u direction,
+    ``∂P/∂u``, in the surface) and, where known, the surface point ``position`` (the mesh's
+    space and units).
     """
 
     resolution: int
@@ -34,6 +35,7 @@ class SurfaceTexels:
     normal: np.ndarray
     barb: np.ndarray
     across: np.ndarray
+    position: np.ndarray | None = None
 
     @property
     def covered(self) -> np.ndarray:
@@ -91,6 +93,7 @@ def surface_texels(mesh: MeshData, resolution: int) -> SurfaceTexels:
         normal=normal,
         barb=_in_surface(interpolate(mesh.barb_tangent), normal),
         across=_in_surface(across, normal),
+        position=interpolate(mesh.points),
     )
 
 

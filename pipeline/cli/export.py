@@ -13,7 +13,7 @@ from pavonine.pipeline.cli.options import (
     requires,
     say,
 )
-from pavonine.pipeline.cli.values import max_pixels_option
+from pavonine.pipeline.cli.values import FiniteFloat, max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
 
 JSON_SCHEMA = {
@@ -53,24 +53,40 @@ JSON_SCHEMA = {
     help="The asset's 'geometry' variant: sheet or barbs (ribbon meshes with their displayColor "
     "as COLOR_0) [default: its own].",
 )
+@click.option(
+    "--eye",
+    type=FiniteFloat(),
+    nargs=3,
+    default=None,
+    metavar="X Y Z",
+    help="The viewer the feather's look is fitted for, in the asset's units (its meshes' space); "
+    "the glTF's one film is fitted to the views from there, face-on and turned 40° about the "
+    "vertical [default: where pavonine view frames the asset, 2.6 bounding radii in front].",
+)
 @json_option(JSON_SCHEMA)
 @requires("pygltflib")
 @max_pixels_option
 @one_line_errors
 def export(
-    asset: Path, output: Path, lod: str | None, geometry: str | None, json_target: str | None
+    asset: Path,
+    output: Path,
+    lod: str | None,
+    geometry: str | None,
+    eye: tuple[float, float, float] | None,
+    json_target: str | None,
 ) -> None:
     """Export ASSET (a root layer, or its folder) as a binary glTF 2.0 file.
 
-    The meshes of one LOD in metres, +Y up, with normals and st as TEXCOORD_0; the baked
-    feather as base colour with alpha MASK (cutoff = opacityThreshold), roughness, and
-    KHR_materials_iridescence with its thickness texture (the baked thin film), other materials
-    from their UsdPreviewSurface constants. Needs a baked asset (pavonine convert or bake).
-    Reference: docs/pipeline.md, "glTF export".
+    The meshes of one LOD in metres, +Y up, with normals and st as TEXCOORD_0; the feather as
+    a base colour with alpha MASK (cutoff = opacityThreshold), a roughness, a
+    KHR_materials_iridescence film and a KHR_materials_specular substrate, fitted per texel to
+    the model's colour under the reference sun as seen from --eye, face-on and turned 40°;
+    other materials from their UsdPreviewSurface constants. Needs a baked asset (pavonine
+    convert or bake). Reference: docs/pipeline.md, "glTF export".
     """
     from pavonine.pipeline.export.gltf import export_gltf
 
-    report = export_gltf(asset, output, lod, geometry)
+    report = export_gltf(asset, output, lod, geometry, eye)
     triangles = sum(m["triangles"] for m in report.meshes)
     say(
         f"wrote   {report.output}: {len(report.meshes)} meshes, {triangles:,} triangles, "

@@ -14,8 +14,9 @@ normals, and per material:
   ``[0, SUBSTRATE_F0_MAX]`` (sRGB, as the extension stores it) times ``specularColorFactor``
   ``SUBSTRATE_F0_MAX / 0.04`` (glTF's F0 at its default index 1.5), and
   ``KHR_materials_iridescence``: factor 1 with ``iridescenceTexture`` R = the film's weight,
-  ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm (a sampler without
-  mipmaps: a mipmap's mean thickness would draw a colour of its own) and the fitted
+  ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm (a ``NEAREST``
+  sampler, neither mipmaps nor interpolation: a mean thickness would draw a colour of its own)
+  and the fitted
   ``iridescenceIor`` (glTF has one index per material);
 * any other material with a UsdPreviewSurface: its constant ``diffuseColor`` (linear, as glTF's
   ``baseColorFactor``), ``roughness`` and ``metallic``.
@@ -80,12 +81,13 @@ class _Binary:
         self.gl = gl
         self.doc = gl.GLTF2(asset=gl.Asset(generator=GENERATOR, version="2.0"))
         self.blob = bytearray()
-        # 0: mipmapped; 1 (the film's thickness): no mipmaps, since a mipmap's mean thickness
-        # draws a colour of its own, not the mean of its texels' colours
-        for minify in (gl.LINEAR_MIPMAP_LINEAR, gl.LINEAR):
+        # 0: mipmapped; 1 (the film's weight and thickness): nearest, neither mipmaps nor
+        # interpolation, since a mean thickness draws a colour of its own, not the mean of its
+        # texels' colours
+        for magnify, minify in ((gl.LINEAR, gl.LINEAR_MIPMAP_LINEAR), (gl.NEAREST, gl.NEAREST)):
             self.doc.samplers.append(
                 gl.Sampler(
-                    magFilter=gl.LINEAR,
+                    magFilter=magnify,
                     minFilter=minify,
                     wrapS=gl.CLAMP_TO_EDGE,
                     wrapT=gl.CLAMP_TO_EDGE,
@@ -117,10 +119,10 @@ class _Binary:
         self.doc.accessors.append(accessor)
         return len(self.doc.accessors) - 1
 
-    def texture(self, png: bytes, name: str, mipmaps: bool = True) -> int:
+    def texture(self, png: bytes, name: str, filtered: bool = True) -> int:
         gl = self.gl
         self.doc.images.append(gl.Image(bufferView=self.view(png), mimeType=gl.IMAGEPNG, name=name))
-        sampler = 0 if mipmaps else 1
+        sampler = 0 if filtered else 1
         self.doc.textures.append(gl.Texture(sampler=sampler, source=len(self.doc.images) - 1))
         return len(self.doc.textures) - 1
 
@@ -182,7 +184,7 @@ def _surface(material, context: str = ""):
     return UsdShade.Shader(output.GetConnectedSources()[0][0].source.GetPrim())
 
 
-def _feather_material(out: _Binary, material, portable, name: str, meshes: list) -> int:
+def _feather_material(out: _Binary, material, portable, name: str, meshes: list, eye=None) -> int:
     """The glTF material of a baked feather material (see the module docstring)."""
     from pavonine.pipeline.bake.textures import read_data_textures
 
@@ -206,14 +208,14 @@ def _feather_material(out: _Binary, material, portable, name: str, meshes: list)
     data = read_data_textures(files)
     threshold = preview.GetInput("opacityThreshold")
     cutoff = float(threshold.Get()) if threshold and threshold.Get() else 0.5
-    look = fitted_look(material, meshes, data["roughness"].shape[0])
+    look = fitted_look(material, meshes, data["roughness"].shape[0], eye)
     base = _png(look.base_rgba, colour.display_encode)
     zeros = np.zeros_like(look.weight)
     rough = out.texture(_png(np.stack([zeros, look.roughness, zeros], -1)), f"{name} roughness")
     iridescence = out.texture(
         _png(np.stack([look.weight, look.thickness_nm / THICKNESS_MAX_NM, zeros], -1)),
         f"{name} iridescence",
-        mipmaps=False,
+        filtered=False,
     )
     substrate = out.texture(
         _png(look.substrate / SUBSTRATE_F0_MAX, srgb_encode), f"{name} substrate"
@@ -348,10 +350,12 @@ def export_gltf(
     output: str | os.PathLike,
     lod: str | None = None,
     geometry: str | None = None,
+    eye: tuple[float, float, float] | None = None,
 ):
     """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``;
     ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes,
-    :mod:`pavonine.pipeline.export.ribbons`)."""
+    :mod:`pavonine.pipeline.export.ribbons`); ``eye`` (the asset's space and units) is the viewer
+    the feather's look is fitted for (:func:`~pavonine.pipeline.export.look.look_targets`)."""
     from pxr import Tf, Usd, UsdGeom, UsdShade
 
     import pavonine  # noqa: F401  (registers the schema)
@@ -411,7 +415,7 @@ def export_gltf(
                     UsdShade.Tokens.preview
                 )
                 meshes = bound_meshes(stage, default, bound)
-                materials[key] = _feather_material(out, bound, preview, name, meshes)
+                materials[key] = _feather_material(out, bound, preview, name, meshes, eye)
             else:
                 materials[key] = _preview_material(out, bound, name)
             report.materials.append(key)

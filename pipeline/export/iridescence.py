@@ -25,7 +25,8 @@ cortex and the substrate the melanin rods' layer under it, which reflects more, 
 that colour is ``F_s``.
 
 **The fit** (:func:`fit_film`): per texel, the model's reflectance factors ``ρ_k`` at the
-reference light and views ``k`` (face-on and tilted, and their neighbours, see :data:`VIEWS`) are
+reference light and views ``k`` (face-on and tilted, and their neighbours: :data:`FIT_TILTS_DEG`,
+of a viewer at a finite distance, :func:`pavonine.pipeline.export.look.viewer_views`) are
 matched by (1) over grids of film thickness ``t``, roughness ``r``, weight ``w`` and, per channel,
 substrate ``F_s``; the base is the weighted least-squares rest (clipped to [0, 1]). The
 error is relative (``1 / (ρ + 0.1)``, :data:`ERROR_FLOOR`) and weighs the face-on and tilted views
@@ -60,7 +61,8 @@ def tilted_views(tilts_deg) -> np.ndarray:
     return np.stack([np.sin(angles), np.zeros_like(angles), np.cos(angles)], axis=-1)
 
 
-#: The views :func:`fit_film` is given by :mod:`pavonine.pipeline.export.look`.
+#: The views of :data:`FIT_TILTS_DEG` for a distant viewer (the limit of the per-texel views
+#: :mod:`pavonine.pipeline.export.look` gives :func:`fit_film`).
 VIEWS = tilted_views(FIT_TILTS_DEG)
 #: Thickness grid searched by :func:`fit_film` (nm); the glTF range is ``[0, THICKNESS_MAX]``.
 THICKNESS_MAX_NM = 1000.0
@@ -416,12 +418,16 @@ def fit_base(
     roughness,
     film_ior,
     substrate,
+    view_weights=None,
     chunk: int = 1 << 16,
 ) -> FilmFit:
     """The view-independent base that best completes a given film (``weight``,
     ``thickness_nm``, ``roughness``, ``substrate`` per texel) to ``target`` ``(n, k, 3)``: the
-    least-squares base of Eq. (1) over the views, clipped to [0, 1] (in linear RGB);
-    ``chunk`` texels at a time (the film's temporaries are ``(chunk, k, 3)``)."""
+    base of Eq. (1) of least :func:`fit_error` (the search's weights, ``view_weights`` default
+    :data:`VIEW_WEIGHTS`, and its relative error), clipped to [0, 1] (in linear RGB), as
+    :func:`fit_film` completes each film it tries; ``chunk`` texels at a time (the film's
+    temporaries are ``(chunk, k, 3)``)."""
+    g = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, dtype=np.float64)
     film = np.empty_like(target, dtype=np.float64)
     for start in range(0, len(target), chunk):
         s = slice(start, start + chunk)
@@ -436,5 +442,6 @@ def fit_base(
             substrate[s],
         )
     dim = 1.0 - schlick(substrate[:, None, :], 1.0, _half_cosines(light, views)[..., None])
-    base = np.clip(((target - film) * dim).sum(axis=1) / (dim * dim).sum(axis=1), 0.0, 1.0)
+    u = g[None, :, None] / (target + ERROR_FLOOR) ** 2
+    base = np.clip((u * (target - film) * dim).sum(axis=1) / (u * dim * dim).sum(axis=1), 0.0, 1.0)
     return FilmFit(base, weight, thickness_nm, roughness, substrate, film + base[:, None, :] * dim)

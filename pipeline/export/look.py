@@ -1,5 +1,7 @@
 """The glTF feather material's textures: the model's reflectance of every texel of the atlas at
-the reference light and the face-on and tilted views (:mod:`pavonine.pipeline.bake.appearance`),
+the reference light and the face-on and tilted views (:mod:`pavonine.pipeline.bake.appearance`)
+of a viewer at a finite distance (:func:`viewer_views`: the views differ from texel to texel;
+from the shipped scene's camera, 36 cm away, they span 44° in elevation along the eye feather),
 fitted by :func:`pavonine.pipeline.export.iridescence.fit_film` to what a glTF viewer draws
 (base colour + ``KHR_materials_iridescence`` over a ``KHR_materials_specular`` substrate).
 
@@ -15,6 +17,7 @@ resolution to its own reflectance (:func:`~pavonine.pipeline.export.iridescence.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,7 +25,9 @@ import numpy as np
 from pavonine.pipeline.bake.appearance import REFERENCE_LIGHT, reflectance_at_views
 from pavonine.pipeline.bake.asset import feather_inputs, merge, mesh_data
 from pavonine.pipeline.bake.texels import dilate, nearest_covered, scatter, surface_texels
-from pavonine.pipeline.export.iridescence import VIEWS, fit_base, fit_error, fit_film
+from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.export.iridescence import FIT_TILTS_DEG, fit_base, fit_error, fit_film
+from pavonine.pipeline.view.viewpoint import framing_eye
 
 #: The film search's atlas resolution at most (texels per side).
 FIT_RESOLUTION = 128
@@ -138,9 +143,9 @@ def _best_index(target, light, views) -> float:
 @dataclass
 class LookTargets:
     """What the fit matches, per covered texel of the atlas (``texels``): the model's
-    reflectance factors ``target`` ``(n, len(VIEWS), 3)`` (clipped at 0), the reference
-    ``light`` ``(n, 3)`` and ``views`` ``(n, len(VIEWS), 3)`` in each texel's frame, and the
-    texels' ``inputs`` (:func:`~pavonine.pipeline.bake.appearance.reflectance_at_views`)."""
+    reflectance factors ``target`` ``(n, len(FIT_TILTS_DEG), 3)`` (clipped at 0), the reference
+    ``light`` ``(n, 3)`` and ``views`` ``(n, len(FIT_TILTS_DEG), 3)`` in each texel's frame, and
+    the texels' ``inputs`` (:func:`~pavonine.pipeline.bake.appearance.reflectance_at_views`)."""
 
     texels: object
     target: np.ndarray
@@ -149,25 +154,53 @@ class LookTargets:
     inputs: dict
 
 
-def look_targets(material, meshes: list, resolution: int) -> LookTargets:
+def viewer_views(points: np.ndarray, eye: Sequence[float], pivot: Sequence[float]) -> np.ndarray:
+    """``(n, len(FIT_TILTS_DEG), 3)``: unit vectors from each of ``points`` (object space) toward
+    the ``eye`` turned by each of :data:`~pavonine.pipeline.export.iridescence.FIT_TILTS_DEG`
+    about the vertical (+Y) axis through ``pivot`` (as :func:`~pavonine.pipeline.export.
+    iridescence.tilted_views` turns a distant viewer: ``R_y(t) = [[cos t, 0, sin t], [0, 1, 0],
+    [−sin t, 0, cos t]]``)."""
+    eye, pivot = np.asarray(eye, dtype=np.float64), np.asarray(pivot, dtype=np.float64)
+    angles = np.radians(np.asarray(FIT_TILTS_DEG, dtype=np.float64))
+    c, s = np.cos(angles), np.sin(angles)
+    x, y, z = eye - pivot
+    eyes = pivot + np.stack([x * c + z * s, np.full_like(c, y), -x * s + z * c], axis=-1)
+    toward = eyes[None, :, :] - np.asarray(points, dtype=np.float64)[:, None, :]
+    return toward / np.linalg.norm(toward, axis=-1, keepdims=True)
+
+
+def look_targets(
+    material, meshes: list, resolution: int, eye: Sequence[float] | None = None
+) -> LookTargets:
     """The model's reflectance over the atlas of the meshes bound to the feather ``material``
-    (merged, their ``st`` atlas rasterised at ``resolution``) at the reference light and
-    :data:`~pavonine.pipeline.export.iridescence.VIEWS`."""
+    (merged, their ``st`` atlas rasterised at ``resolution``) at the reference light and the
+    views of a viewer at ``eye`` (object space and units; default: where ``pavonine view``
+    frames the meshes, :func:`~pavonine.pipeline.view.viewpoint.framing_eye`), turned by
+    :data:`~pavonine.pipeline.export.iridescence.FIT_TILTS_DEG` about the vertical through the
+    meshes' centre."""
     params, maps, _ = feather_inputs(material)
     vane = merge([mesh_data(prim) for prim in meshes])
     texels = surface_texels(vane, resolution)
-    target, inputs = reflectance_at_views(texels, maps, params, REFERENCE_LIGHT, VIEWS)
+    lo, hi = vane.points.min(axis=0), vane.points.max(axis=0)
+    framed, centre = framing_eye(lo, hi)
+    if eye is not None and np.all((lo <= eye) & (eye <= hi)):
+        box = " – ".join(str(tuple(round(float(v), 3) for v in c)) for c in (lo, hi))
+        raise InputError("--eye", f"{tuple(eye)} is inside the feather's bounds {box}")
+    world_views = viewer_views(texels.position, framed if eye is None else eye, centre)
+    target, inputs = reflectance_at_views(texels, maps, params, REFERENCE_LIGHT, world_views)
     frames = inputs["frames"]
     light = frames @ REFERENCE_LIGHT
-    views = np.einsum("nij,kj->nki", frames, VIEWS)
+    views = np.einsum("nij,nkj->nki", frames, world_views)
     # clipped at 0: the gamut a viewer can show
     return LookTargets(texels, np.clip(target, 0.0, None), light, views, inputs)
 
 
-def fitted_look(material, meshes: list, resolution: int) -> FittedLook:
+def fitted_look(
+    material, meshes: list, resolution: int, eye: Sequence[float] | None = None
+) -> FittedLook:
     """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
-    ``st`` atlas rasterised at ``resolution``)."""
-    found = look_targets(material, meshes, resolution)
+    ``st`` atlas rasterised at ``resolution``) for a viewer at ``eye`` (:func:`look_targets`)."""
+    found = look_targets(material, meshes, resolution, eye)
     texels, target, light, views = found.texels, found.target, found.light, found.views
     inputs = found.inputs
     step = max(1, resolution // FIT_RESOLUTION)

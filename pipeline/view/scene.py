@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.pipeline.errors import InputError
+from pavonine.pipeline.view.viewpoint import framing_eye
 
 #: Variant sets the page offers (the asset's level of detail; barbs or sheet).
 VIEW_VARIANT_SETS = ("lod", "geometry")
@@ -316,7 +317,7 @@ def _world(cache, prim) -> np.ndarray:
     return np.array(cache.GetLocalToWorldTransform(prim), dtype=np.float64)
 
 
-def _camera(stage, cache, centre: np.ndarray, radius: float) -> dict:
+def _camera(stage, cache, lo: np.ndarray, hi: np.ndarray) -> dict:
     from pxr import UsdGeom, UsdRender
 
     prim = None
@@ -327,12 +328,12 @@ def _camera(stage, cache, centre: np.ndarray, radius: float) -> dict:
     if prim is None:
         prim = next((p for p in stage.Traverse() if p.IsA(UsdGeom.Camera)), None)
     if prim is None:
-        eye = centre + np.array([0.0, 0.0, 2.6 * radius])
+        eye, centre = framing_eye(lo, hi)
         return {"eye": eye.tolist(), "target": centre.tolist(), "fov": 39.6, "path": None}
     cam = UsdGeom.Camera(prim).GetCamera()
     m = _world(cache, prim)
     eye, forward = m[3, :3], -m[2, :3] / np.linalg.norm(m[2, :3])
-    depth = max(float(np.dot(centre - eye, forward)), 1e-3)
+    depth = max(float(np.dot((lo + hi) / 2.0 - eye, forward)), 1e-3)
     fov = 2.0 * math.degrees(math.atan(0.5 * cam.verticalAperture / cam.focalLength))
     return {
         "eye": eye.tolist(),
@@ -418,7 +419,7 @@ def read_scene(path: str | os.PathLike, selections: dict[str, str] | None = None
         meshes=meshes,
         materials=materials.entries,
         camera={
-            **_camera(stage, cache, centre, radius),
+            **_camera(stage, cache, lo, hi),
             "centre": centre.tolist(),
             "radius": radius,
         },

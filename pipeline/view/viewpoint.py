@@ -20,6 +20,20 @@ from pavonine.pipeline.errors import InputError
 VIEW_VECTORS = {"eye": 3, "target": 3, "up": 3, "sun": 3, "irradiance": 3, "sky": 3}
 
 
+#: How far in front of its centre (bounding radii, along +Z) the page puts its eye when the stage
+#: has no camera (with a 39.6° vertical field of view), and the viewer ``pavonine export`` fits
+#: its look for by default.
+FRAMING_RADII = 2.6
+
+
+def framing_eye(lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """The default eye and the centre it looks at for a bound ``[lo, hi]`` (world space): the
+    centre of the bound, and :data:`FRAMING_RADII` radii (half its diagonal) in front of it."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    centre, radius = (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-3)
+    return centre + np.array([0.0, 0.0, FRAMING_RADII * radius]), centre
+
+
 def _unit(v) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     n = np.linalg.norm(v)
