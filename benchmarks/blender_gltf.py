@@ -29,9 +29,9 @@ Specular Tint = specularColorTexture × specularColorFactor through an unclamped
 is kept) but not KHR_materials_iridescence (Thin Film Thickness stays 0): Blender draws the base
 and the bare substrate. ΔE2000 on the test eye (heart, blue-green, bronze, outer ring, vane):
 
-    Cycles as imported      face-on  8.4 / 16.8 / 8.0 / 10.1 /  8.5   tilted 15.6 / 22.8 / 8.2 / 15.0 / 21.0
-    EEVEE as imported       face-on  9.1 / 17.1 / 9.0 / 10.3 /  8.6   tilted 14.4 / 23.7 / 9.1 / 15.0 / 20.5
-    Cycles, film by hand    face-on  8.9 /  6.7 / 6.1 /  6.5 /  4.7   tilted  8.5 / 12.1 / 5.0 /  6.2 /  3.1
+    Cycles as imported      face-on  9.0 / 16.2 / 7.7 /  9.9 /  8.3   tilted 15.7 / 21.6 / 7.0 / 16.4 / 20.5
+    EEVEE as imported       face-on  9.5 / 16.2 / 8.1 / 10.0 /  8.4   tilted 14.7 / 22.4 / 7.6 / 16.3 / 20.0
+    Cycles, film by hand    face-on  9.6 /  9.9 / 6.5 /  7.5 /  5.2   tilted  9.2 / 11.1 / 5.1 /  8.1 /  3.1
 
 ("film by hand": ``cycles_film``, see blender_render_gltf.wire_film.) The flat quads of
 tests/test_gltf_threejs.py, printed last, show that as imported Cycles draws what
