@@ -2,14 +2,16 @@
 a Lambertian base can come to the model,
 per ocellus zone, before any viewer draws it: ΔE2000 of each zone's mean colour, the model's
 reflectance factor against the fitted glTF model's (``pipeline/export/iridescence.py`` Eq. 1),
-at the face-on and tilted 40° reference views, on the texels the export's film search uses.
+at the face-on and tilted 40° views of the viewer the export fits for (``--eye``, as
+``pavonine export --eye``; default where ``pavonine view`` frames the asset), on the texels the
+export's film search uses.
 
 Rows, for each film index the export considers: the export's search (six views: face-on and
 tilted, ±8° about each, then the search near the local median thickness), then as a bound the
 same grid search given only the two views the acceptance checks (no neighbours to hold, a free
 search). Yardstick: zones of the export's own fit.
 
-    python benchmarks/gltf_fit_bound.py ASSET.usd
+    python benchmarks/gltf_fit_bound.py ASSET.usd [--eye X Y Z]
 """
 
 from __future__ import annotations
@@ -39,13 +41,16 @@ def main() -> None:
     from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
     from pavonine.pipeline.export import iridescence as irid
     from pavonine.pipeline.export import look
+    from pavonine.pipeline.export.gltf import fit_viewer
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("asset")
     parser.add_argument("--resolution", type=int, default=256)
+    parser.add_argument("--eye", type=float, nargs=3, default=None, metavar=("X", "Y", "Z"))
     args = parser.parse_args()
-    _stage, material, meshes = _feather(args.asset)  # the stage outlives its prims' use
-    found = look.look_targets(material, meshes, args.resolution)
+    stage, material, meshes = _feather(args.asset)  # the stage outlives its prims' use
+    eye, pivot = fit_viewer(stage, args.eye)
+    found = look.look_targets(material, meshes, args.resolution, eye, pivot)
     step = max(1, args.resolution // look.FIT_RESOLUTION)
     subset, _ = look._searched(found.texels, step)
     target, light, views = found.target[subset], found.light[subset], found.views[subset]

@@ -7,11 +7,10 @@ headless Chromium (software WebGL; needs ``.ci/node_modules``, installed by ``.c
 prints ΔE2000 of each zone's mean colour; the side-by-side frames go to ``--out``.
 ``--fit-eye scene`` (the default) exports the look fitted for the scene's camera
 (``pavonine export --eye``), as the test does; ``framing`` for the export's default viewer
-(where ``pavonine view`` frames the asset); ``far`` for a camera 1000 times farther than the
-scene's (nearly parallel views).
+(where ``pavonine view`` frames the asset).
 
     python benchmarks/gltf_threejs.py [--asset assets/feathers/eye_feather] [--resolution 512x768]
-        [--fit-eye scene|framing|far]
+        [--fit-eye scene|framing]
 """
 
 from __future__ import annotations
@@ -40,7 +39,7 @@ def main() -> None:
     )
     parser.add_argument("--spp", type=int, default=32)
     parser.add_argument("--out", type=Path, default=None, help="folder for the frames")
-    parser.add_argument("--fit-eye", choices=("scene", "framing", "far"), default="scene")
+    parser.add_argument("--fit-eye", choices=("scene", "framing"), default="scene")
     args = parser.parse_args()
     resolution = tuple(int(v) for v in args.resolution.split("x"))
     out = args.out or Path(tempfile.mkdtemp(prefix="pavonine-gltf-threejs-"))
@@ -49,9 +48,8 @@ def main() -> None:
     glb = out / f"{asset.name}.glb"
     start = time.perf_counter()
     command = [sys.executable, "-m", "pavonine.pipeline.cli", "export", str(asset), "-o", str(glb)]
-    if args.fit_eye != "framing":
-        scale = 1.0 if args.fit_eye == "scene" else 1000.0
-        command += ["--eye", *(str(v * scale) for v in scene_eye())]
+    if args.fit_eye == "scene":
+        command += ["--eye", *(str(v) for v in scene_eye())]
     subprocess.run([*command, "-q"], check=True)
     print(f"export: {time.perf_counter() - start:.1f} s wall")
     rows = {}

@@ -33,6 +33,12 @@ def glb(eye_asset, tmp_path_factory) -> Path:
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     assert report["lod"] == "medium" and len(report["meshes"]) == 2
+    # without --eye, the look is fitted for the eye `pavonine view` frames the asset from
+    from pavonine.pipeline.view.scene import read_scene
+
+    page = read_scene(eye_asset.parent, {"lod": "medium"}).camera
+    assert report["eye"] == pytest.approx(page["eye"]) and page["path"] is None
+    assert report["pivot"] == pytest.approx(page["centre"])
     return out
 
 
@@ -60,6 +66,8 @@ def test_glb_carries_the_baked_feather(glb, eye_asset, tmp_path):
 
     doc = pygltflib.GLTF2().load_binary(str(glb))
     assert doc.extensionsUsed == ["KHR_materials_iridescence", "KHR_materials_specular"]
+    fitted = doc.asset.extras["pavonine"]  # the viewer the look is fitted for, in metres
+    assert len(fitted["fittedForEye"]) == 3 and fitted["fittedForEye"][2] > 0.2  # 30 cm in front
     materials = {m.name: m for m in doc.materials}
     feather, rachis = materials["Feather"], materials["Rachis"]
     assert feather.alphaMode == "MASK" and feather.alphaCutoff == pytest.approx(0.5)
@@ -193,3 +201,36 @@ def test_a_missing_baked_texture_is_named_with_its_shader_input(eye_asset, tmp_p
     )
     assert ".inputs:file: " in result.stderr and "not found" in result.stderr
     assert not (tmp_path / "x.glb").exists()
+
+
+def test_the_look_is_fitted_to_the_views_from_the_eye_turned_about_the_pivot(eye_asset):
+    """``look_targets`` gives the fit, per texel and in its frame, the views toward the eye turned
+    about the pivot (``viewer_views`` of the texel's surface point), and the model's reflectance
+    at each of them (against the same texel given that view alone)."""
+    from pxr import Usd, UsdShade
+
+    from pavonine.pipeline.bake import appearance
+    from pavonine.pipeline.bake.asset import bound_meshes, feather_inputs
+    from pavonine.pipeline.export import look
+
+    stage = Usd.Stage.Open(str(eye_asset))
+    default = stage.GetDefaultPrim()
+    material = next(
+        bound
+        for prim in Usd.PrimRange(default)
+        if (bound := UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0])
+        and "PavonineFeatherAPI" in bound.GetPrim().GetAppliedSchemas()
+    )
+    meshes = bound_meshes(stage, default, material)
+    eye, pivot = np.array([3.0, 17.0, 36.0]), np.array([0.5, 10.0, -1.0])
+    found = look.look_targets(material, meshes, 16, eye, pivot)
+    toward = look.viewer_views(found.texels.position, eye, pivot)
+    frames = found.inputs["frames"]
+    assert np.allclose(found.views, np.einsum("nij,nkj->nki", frames, toward))
+    tilted = irid.FIT_TILTS_DEG.index(irid.TILT_DEG)
+    params, maps, _ = feather_inputs(material)
+    for i in (0, len(toward) - 1):
+        alone, _ = appearance.reflectance_at_views(
+            found.texels, maps, params, appearance.REFERENCE_LIGHT, toward[i, tilted][None]
+        )
+        assert np.allclose(found.target[i, tilted], np.clip(alone[i, 0], 0.0, None))

@@ -270,12 +270,13 @@ def _reflectance(params, inputs: dict, light: np.ndarray, view: np.ndarray):
     else:
         # The melanin term is Lambertian, ρ/π on the light's side and 0 behind (paper §3.3.6,
         # materials/brdf.py feather_brdf): it depends on a view only through its side, so the
-        # views straight out of either side serve every texel.
+        # views straight out of either side serve every texel (a grazing view gets none).
         front, back = (
             melanin_rgb(np.array([0.0, 0.0, 1.0])),
             melanin_rgb(np.array([0.0, 0.0, -1.0])),
         )
-        melanin = np.where(view[:, 2:3] > 0.0, front, back)
+        side = view[:, 2:3]
+        melanin = np.where(side > 0.0, front, np.where(side < 0.0, back, 0.0))
     share = inputs["share"][:, None]
     return share * structural + (1.0 - share) * melanin, found
 

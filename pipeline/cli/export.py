@@ -15,10 +15,11 @@ from pavonine.pipeline.cli.options import (
 )
 from pavonine.pipeline.cli.values import FiniteFloat, max_pixels_option
 from pavonine.pipeline.errors import one_line_errors
+from pavonine.pipeline.view.viewpoint import FRAMING_RADII
 
 JSON_SCHEMA = {
     "type": "object",
-    "required": ["asset", "output", "lod", "meshes", "materials", "bytes"],
+    "required": ["asset", "output", "lod", "meshes", "materials", "bytes", "eye", "pivot"],
     "properties": {
         "asset": {"type": "string", "description": "root layer of the asset exported"},
         "output": {"type": "string", "description": "the .glb written"},
@@ -37,6 +38,16 @@ JSON_SCHEMA = {
         },
         "materials": {"type": "array", "items": {"type": "string"}},
         "bytes": {"type": "integer", "description": "size of the .glb"},
+        "eye": {
+            "type": "array",
+            "items": {"type": "number"},
+            "description": "the viewer the feather's look is fitted for (the asset's units)",
+        },
+        "pivot": {
+            "type": "array",
+            "items": {"type": "number"},
+            "description": "the point whose vertical the fitted tilted views turn about",
+        },
     },
 }
 
@@ -59,9 +70,10 @@ JSON_SCHEMA = {
     nargs=3,
     default=None,
     metavar="X Y Z",
-    help="The viewer the feather's look is fitted for, in the asset's units (its meshes' space); "
-    "the glTF's one film is fitted to the views from there, face-on and turned 40° about the "
-    "vertical [default: where pavonine view frames the asset, 2.6 bounding radii in front].",
+    help="The viewer the feather's look is fitted for, in the asset's space and units; the "
+    "glTF's one film is fitted to the views from there, face-on and turned 40° about the "
+    "vertical through the asset's centre [default: where pavonine view frames the asset, "
+    f"{FRAMING_RADII:g} bounding radii in front].",
 )
 @json_option(JSON_SCHEMA)
 @requires("pygltflib")

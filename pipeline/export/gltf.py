@@ -6,7 +6,9 @@ vertex), ``TEXCOORD_0`` = ``st`` with ``v`` flipped (glTF's origin is the image'
 normals, and per material:
 
 * the feather material (``PavonineFeatherAPI``, baked): the look fitted to the model's BRDF
-  by :mod:`pavonine.pipeline.export.look` (a base colour, a film and a roughness per texel):
+  by :mod:`pavonine.pipeline.export.look` (a base colour, a film and a roughness per texel) for
+  one viewer, the ``eye`` given or where ``pavonine view`` frames the asset, face-on and turned
+  about the vertical through the asset's centre (recorded in ``asset.extras.pavonine``, metres):
   ``baseColorTexture`` = the fitted base (sRGB colour, linear alpha = the baked opacity),
   ``alphaMode`` ``MASK`` with ``alphaCutoff`` = the preview's ``opacityThreshold``,
   ``metallicRoughnessTexture`` (G = fitted roughness, B = metallic 0), double-sided,
@@ -16,8 +18,7 @@ normals, and per material:
   ``KHR_materials_iridescence``: factor 1 with ``iridescenceTexture`` R = the film's weight,
   ``iridescenceThicknessTexture`` G = its thickness over ``[0, 1000]`` nm (a ``NEAREST``
   sampler, neither mipmaps nor interpolation: a mean thickness would draw a colour of its own)
-  and the fitted
-  ``iridescenceIor`` (glTF has one index per material);
+  and the fitted ``iridescenceIor`` (glTF has one index per material);
 * any other material with a UsdPreviewSurface: its constant ``diffuseColor`` (linear, as glTF's
   ``baseColorFactor``), ``roughness`` and ``metallic``.
 
@@ -60,6 +61,8 @@ class ExportReport:
     meshes: list[dict] = field(default_factory=list)
     materials: list[str] = field(default_factory=list)
     bytes: int = 0
+    eye: list[float] = field(default_factory=list)
+    pivot: list[float] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {
@@ -69,6 +72,8 @@ class ExportReport:
             "meshes": self.meshes,
             "materials": self.materials,
             "bytes": self.bytes,
+            "eye": self.eye,
+            "pivot": self.pivot,
         }
 
 
@@ -184,8 +189,11 @@ def _surface(material, context: str = ""):
     return UsdShade.Shader(output.GetConnectedSources()[0][0].source.GetPrim())
 
 
-def _feather_material(out: _Binary, material, portable, name: str, meshes: list, eye=None) -> int:
-    """The glTF material of a baked feather material (see the module docstring)."""
+def _feather_material(
+    out: _Binary, material, portable, name: str, meshes: list, viewer: tuple
+) -> int:
+    """The glTF material of a baked feather material (see the module docstring), fitted for the
+    ``viewer`` (eye, pivot: :func:`~pavonine.pipeline.export.look.look_targets`)."""
     from pavonine.pipeline.bake.textures import read_data_textures
 
     gl = out.gl
@@ -208,7 +216,7 @@ def _feather_material(out: _Binary, material, portable, name: str, meshes: list,
     data = read_data_textures(files)
     threshold = preview.GetInput("opacityThreshold")
     cutoff = float(threshold.Get()) if threshold and threshold.Get() else 0.5
-    look = fitted_look(material, meshes, data["roughness"].shape[0], eye)
+    look = fitted_look(material, meshes, data["roughness"].shape[0], *viewer)
     base = _png(look.base_rgba, colour.display_encode)
     zeros = np.zeros_like(look.weight)
     rough = out.texture(_png(np.stack([zeros, look.roughness, zeros], -1)), f"{name} roughness")
@@ -345,6 +353,23 @@ def _export_ribbons(out, prim, cache, default, scale, materials, report, childre
     )
 
 
+def fit_viewer(stage, eye=None) -> tuple[np.ndarray, np.ndarray]:
+    """The eye the feather's look is fitted for (``eye``, else where ``pavonine view`` frames the
+    stage) and the centre of the stage's bound it turns about (world space and units); an eye
+    inside that bound is refused."""
+    from pavonine.pipeline.view.viewpoint import framing, stage_bound
+
+    lo, hi = stage_bound(stage)
+    framed, centre, _ = framing(lo, hi)
+    if eye is None:
+        return framed, centre
+    eye = np.asarray(eye, dtype=np.float64)
+    if np.all((lo <= eye) & (eye <= hi)):
+        box = " – ".join(str(tuple(round(float(v), 3) for v in c)) for c in (lo, hi))
+        raise InputError("--eye", f"{tuple(eye.tolist())} is inside the asset's bounds {box}")
+    return eye, centre
+
+
 def export_gltf(
     asset: str | os.PathLike,
     output: str | os.PathLike,
@@ -355,7 +380,7 @@ def export_gltf(
     """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``;
     ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes,
     :mod:`pavonine.pipeline.export.ribbons`); ``eye`` (the asset's space and units) is the viewer
-    the feather's look is fitted for (:func:`~pavonine.pipeline.export.look.look_targets`)."""
+    the feather's look is fitted for (default: where ``pavonine view`` frames the asset)."""
     from pxr import Tf, Usd, UsdGeom, UsdShade
 
     import pavonine  # noqa: F401  (registers the schema)
@@ -383,9 +408,11 @@ def export_gltf(
     if UsdGeom.GetStageUpAxis(stage) != UsdGeom.Tokens.y:
         raise InputError(str(root), "only +Y-up assets are exported (glTF is +Y up)")
     scale = UsdGeom.GetStageMetersPerUnit(stage)
+    fit_eye, pivot = fit_viewer(stage, eye)
     out = _Binary()
     gl = out.gl
     report = ExportReport(str(root), str(output), variants.GetVariantSelection() or None)
+    report.eye, report.pivot = fit_eye.tolist(), pivot.tolist()
     cache = UsdGeom.XformCache()
     materials: dict[str, int] = {}
     children = []
@@ -415,7 +442,9 @@ def export_gltf(
                     UsdShade.Tokens.preview
                 )
                 meshes = bound_meshes(stage, default, bound)
-                materials[key] = _feather_material(out, bound, preview, name, meshes, eye)
+                materials[key] = _feather_material(
+                    out, bound, preview, name, meshes, (fit_eye, pivot)
+                )
             else:
                 materials[key] = _preview_material(out, bound, name)
             report.materials.append(key)
@@ -444,6 +473,13 @@ def export_gltf(
     out.doc.scene = 0
     if any(IRIDESCENCE in (m.extensions or {}) for m in out.doc.materials):
         out.doc.extensionsUsed = [IRIDESCENCE, SPECULAR]
+        # the viewer the look was fitted for, in the glTF's space (metres)
+        out.doc.asset.extras = {
+            "pavonine": {
+                "fittedForEye": (fit_eye * scale).tolist(),
+                "turnedAbout": (pivot * scale).tolist(),
+            }
+        }
     with atomic_path(output) as tmp:
         out.save(tmp)
     report.bytes = output.stat().st_size

@@ -374,7 +374,7 @@ def fit_film(
     ``views`` ``(n, k, 3)``: unit vectors in each texel's frame (normal +Z). Without ``prior_nm``
     thicknesses are searched every :data:`FREE_STEP_NM`; with it (per texel) every
     :data:`THICKNESS_STEP_NM` within ``window_nm`` of it. ``view_weights``: the error's weight
-    of each view (default :data:`VIEW_WEIGHTS`, for :data:`VIEWS`)."""
+    of each view (default :data:`VIEW_WEIGHTS`, for :data:`FIT_TILTS_DEG`)."""
     weights = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, np.float64)
     step = FREE_STEP_NM if prior_nm is None else THICKNESS_STEP_NM
     grid = np.arange(0.0, THICKNESS_MAX_NM + 0.5 * step, step)

@@ -25,9 +25,7 @@ import numpy as np
 from pavonine.pipeline.bake.appearance import REFERENCE_LIGHT, reflectance_at_views
 from pavonine.pipeline.bake.asset import feather_inputs, merge, mesh_data
 from pavonine.pipeline.bake.texels import dilate, nearest_covered, scatter, surface_texels
-from pavonine.pipeline.errors import InputError
 from pavonine.pipeline.export.iridescence import FIT_TILTS_DEG, fit_base, fit_error, fit_film
-from pavonine.pipeline.view.viewpoint import framing_eye
 
 #: The film search's atlas resolution at most (texels per side).
 FIT_RESOLUTION = 128
@@ -109,7 +107,7 @@ def _film_of(film, index: np.ndarray) -> tuple:
 
 def _best_films(found: LookTargets, film, candidates: np.ndarray, film_ior: float):
     """Per texel of ``found``, the one of its ``candidates`` (searched texels of ``film``,
-    ``(n, c)``) whose film, completed by its least-squares base, fits the texel's reflectance
+    ``(n, c)``) whose film, completed by its base (:func:`fit_base`), fits the texel's reflectance
     best: that candidate and the base. Each distinct candidate of a texel is tried once."""
     target, light, views = found.target, found.light, found.views
     pick = candidates[:, 0].copy()
@@ -170,23 +168,17 @@ def viewer_views(points: np.ndarray, eye: Sequence[float], pivot: Sequence[float
 
 
 def look_targets(
-    material, meshes: list, resolution: int, eye: Sequence[float] | None = None
+    material, meshes: list, resolution: int, eye: Sequence[float], pivot: Sequence[float]
 ) -> LookTargets:
     """The model's reflectance over the atlas of the meshes bound to the feather ``material``
     (merged, their ``st`` atlas rasterised at ``resolution``) at the reference light and the
-    views of a viewer at ``eye`` (object space and units; default: where ``pavonine view``
-    frames the meshes, :func:`~pavonine.pipeline.view.viewpoint.framing_eye`), turned by
-    :data:`~pavonine.pipeline.export.iridescence.FIT_TILTS_DEG` about the vertical through the
-    meshes' centre."""
+    views of a viewer at ``eye`` turned by
+    :data:`~pavonine.pipeline.export.iridescence.FIT_TILTS_DEG` about the vertical through
+    ``pivot`` (:func:`viewer_views`; both in the meshes' space and units)."""
     params, maps, _ = feather_inputs(material)
     vane = merge([mesh_data(prim) for prim in meshes])
     texels = surface_texels(vane, resolution)
-    lo, hi = vane.points.min(axis=0), vane.points.max(axis=0)
-    framed, centre = framing_eye(lo, hi)
-    if eye is not None and np.all((lo <= eye) & (eye <= hi)):
-        box = " – ".join(str(tuple(round(float(v), 3) for v in c)) for c in (lo, hi))
-        raise InputError("--eye", f"{tuple(eye)} is inside the feather's bounds {box}")
-    world_views = viewer_views(texels.position, framed if eye is None else eye, centre)
+    world_views = viewer_views(texels.position, eye, pivot)
     target, inputs = reflectance_at_views(texels, maps, params, REFERENCE_LIGHT, world_views)
     frames = inputs["frames"]
     light = frames @ REFERENCE_LIGHT
@@ -196,11 +188,12 @@ def look_targets(
 
 
 def fitted_look(
-    material, meshes: list, resolution: int, eye: Sequence[float] | None = None
+    material, meshes: list, resolution: int, eye: Sequence[float], pivot: Sequence[float]
 ) -> FittedLook:
     """Fit the glTF look of the feather ``material`` over the meshes bound to it (merged, their
-    ``st`` atlas rasterised at ``resolution``) for a viewer at ``eye`` (:func:`look_targets`)."""
-    found = look_targets(material, meshes, resolution, eye)
+    ``st`` atlas rasterised at ``resolution``) for a viewer at ``eye`` turned about ``pivot``
+    (:func:`look_targets`)."""
+    found = look_targets(material, meshes, resolution, eye, pivot)
     texels, target, light, views = found.texels, found.target, found.light, found.views
     inputs = found.inputs
     step = max(1, resolution // FIT_RESOLUTION)

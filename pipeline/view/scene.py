@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.view.viewpoint import framing_eye
+from pavonine.pipeline.view.viewpoint import framing, stage_bound
 
 #: Variant sets the page offers (the asset's level of detail; barbs or sheet).
 VIEW_VARIANT_SETS = ("lod", "geometry")
@@ -328,7 +328,7 @@ def _camera(stage, cache, lo: np.ndarray, hi: np.ndarray) -> dict:
     if prim is None:
         prim = next((p for p in stage.Traverse() if p.IsA(UsdGeom.Camera)), None)
     if prim is None:
-        eye, centre = framing_eye(lo, hi)
+        eye, centre, _ = framing(lo, hi)
         return {"eye": eye.tolist(), "target": centre.tolist(), "fov": 39.6, "path": None}
     cam = UsdGeom.Camera(prim).GetCamera()
     m = _world(cache, prim)
@@ -390,7 +390,6 @@ def read_scene(path: str | os.PathLike, selections: dict[str, str] | None = None
     files: dict[str, Path] = {}
     materials = _Materials(files, warnings)
     meshes: list[MeshBuffers] = []
-    bbox = UsdGeom.BBoxCache(time, [UsdGeom.Tokens.default_, UsdGeom.Tokens.render])
     instanced: set[str] = set()
     it = iter(Usd.PrimRange(stage.GetPseudoRoot()))
     for prim in it:
@@ -410,9 +409,8 @@ def read_scene(path: str | os.PathLike, selections: dict[str, str] | None = None
                 meshes.append(mesh)
     if not meshes:
         raise InputError(str(root), "has no mesh to show (default or render purpose)")
-    box = bbox.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
-    lo, hi = np.array(box.GetMin()), np.array(box.GetMax())
-    centre, radius = (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-3)
+    lo, hi = stage_bound(stage)
+    _, centre, radius = framing(lo, hi)
     sun, sky = _lights(stage, cache, warnings)
     return ViewScene(
         stage_path=root,
