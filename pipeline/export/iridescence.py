@@ -289,6 +289,15 @@ def substrate_grid(film_ior: float) -> tuple[np.ndarray, np.ndarray]:
     return np.array([0.0]), SUBSTRATE_F0[SUBSTRATE_F0 > own]
 
 
+def error_weights(target: np.ndarray, view_weights=None) -> np.ndarray:
+    """``(n, k, 3)``: the weight ``u = g_k / (ρ + ERROR_FLOOR)²`` of each view and channel of
+    ``target`` in the fit's error ``Σ u (ρ̂ − ρ)²`` (``g`` = ``view_weights``, default
+    :data:`VIEW_WEIGHTS`): the one weighting the search, :func:`fit_base` and
+    :func:`fit_error` share."""
+    g = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, dtype=np.float64)
+    return g[None, :, None] / (target + ERROR_FLOOR) ** 2
+
+
 def _search_chunk(rho, light, views, tables, grids, far, view_weights):
     """The grid search of :func:`fit_film` for one chunk of ``m`` texels: base, weight,
     thickness index, roughness and substrate of the smallest error.
@@ -300,7 +309,7 @@ def _search_chunk(rho, light, views, tables, grids, far, view_weights):
     least-squares value, clipped to [0, 1]. Channels pick their substrates independently within each of
     :func:`substrate_grid`'s two sides."""
     m = len(rho)
-    u = view_weights[None, :, None] / (rho + ERROR_FLOOR) ** 2  # (m, k, 3)
+    u = error_weights(rho, view_weights)  # (m, k, 3)
     vh = _half_cosines(light, views)
     best = {
         "error": np.full(m, np.inf),
@@ -354,9 +363,8 @@ def fit_error(reflectance: np.ndarray, target: np.ndarray, view_weights=None) ->
     """The search's error per texel: ``Σ_k g_k ((ρ̂_k − ρ_k) / (ρ_k + ERROR_FLOOR))²`` over views
     and channels of ``(n, k, 3)`` arrays, ``g`` = ``view_weights`` (default
     :data:`VIEW_WEIGHTS`)."""
-    g = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, dtype=np.float64)
-    relative = (reflectance - target) / (target + ERROR_FLOOR)
-    return (g[None, :, None] * relative * relative).sum(axis=(1, 2))
+    residual = reflectance - target
+    return (error_weights(target, view_weights) * residual * residual).sum(axis=(1, 2))
 
 
 def fit_film(
@@ -375,7 +383,6 @@ def fit_film(
     thicknesses are searched every :data:`FREE_STEP_NM`; with it (per texel) every
     :data:`THICKNESS_STEP_NM` within ``window_nm`` of it. ``view_weights``: the error's weight
     of each view (default :data:`VIEW_WEIGHTS`, for :data:`FIT_TILTS_DEG`)."""
-    weights = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, np.float64)
     step = FREE_STEP_NM if prior_nm is None else THICKNESS_STEP_NM
     grid = np.arange(0.0, THICKNESS_MAX_NM + 0.5 * step, step)
     grids = substrate_grid(film_ior)
@@ -390,7 +397,7 @@ def fit_film(
             far = np.abs(grid[None, :] - prior_nm[s, None]) > window_nm
             near = np.flatnonzero(~far.all(axis=0))
             far, chunk_tables = far[:, near], [table[:, near] for table in tables]
-        best = _search_chunk(target[s], light[s], views[s], chunk_tables, grids, far, weights)
+        best = _search_chunk(target[s], light[s], views[s], chunk_tables, grids, far, view_weights)
         for key in ("base", "weight", "roughness", "substrate"):
             out[key][s] = best[key]
         out["thickness"][s] = grid[near][best["pick"]]
@@ -427,7 +434,6 @@ def fit_base(
     :data:`VIEW_WEIGHTS`, and its relative error), clipped to [0, 1] (in linear RGB), as
     :func:`fit_film` completes each film it tries; ``chunk`` texels at a time (the film's
     temporaries are ``(chunk, k, 3)``)."""
-    g = VIEW_WEIGHTS if view_weights is None else np.asarray(view_weights, dtype=np.float64)
     film = np.empty_like(target, dtype=np.float64)
     for start in range(0, len(target), chunk):
         s = slice(start, start + chunk)
@@ -442,6 +448,6 @@ def fit_base(
             substrate[s],
         )
     dim = 1.0 - schlick(substrate[:, None, :], 1.0, _half_cosines(light, views)[..., None])
-    u = g[None, :, None] / (target + ERROR_FLOOR) ** 2
+    u = error_weights(target, view_weights)
     base = np.clip((u * (target - film) * dim).sum(axis=1) / (u * dim * dim).sum(axis=1), 0.0, 1.0)
     return FilmFit(base, weight, thickness_nm, roughness, substrate, film + base[:, None, :] * dim)
