@@ -33,6 +33,7 @@ def glb(eye_asset, tmp_path_factory) -> Path:
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     assert report["lod"] == "medium" and len(report["meshes"]) == 2
+    assert "own space" not in result.stderr  # the asset's meshes are not transformed
     # without --eye, the look is fitted for the eye `pavonine view` frames the asset from
     from pavonine.pipeline.view.scene import read_scene
 
@@ -234,3 +235,24 @@ def test_the_look_is_fitted_to_the_views_from_the_eye_turned_about_the_pivot(eye
             found.texels, maps, params, appearance.REFERENCE_LIGHT, toward[i, tilted][None]
         )
         assert np.allclose(found.target[i, tilted], np.clip(alone[i, 0], 0.0, None))
+
+
+def test_a_transformed_feather_mesh_is_named_in_a_warning(eye_asset, tmp_path):
+    """The look is fitted at the meshes' own points and the eye is in the asset's space: a mesh
+    a transform moves is exported, and named in a warning (its fitted views are off)."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(eye_asset))
+    vane = next(p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh) and "Rachis" not in p.GetName())
+    layer = Sdf.Layer.CreateNew(str(tmp_path / "moved.usda"))
+    layer.subLayerPaths.append(str(eye_asset))
+    layer.defaultPrim = stage.GetDefaultPrim().GetName()
+    over = Usd.Stage.Open(layer)
+    UsdGeom.Xformable(over.OverridePrim(vane.GetPath())).AddTranslateOp().Set((0.0, 0.0, 2.0))
+    over.SetMetadata("metersPerUnit", UsdGeom.GetStageMetersPerUnit(stage))
+    over.SetMetadata("upAxis", UsdGeom.GetStageUpAxis(stage))
+    layer.Save()
+    result = run("export", tmp_path / "moved.usda", "-o", tmp_path / "moved.glb", "--lod", "low")
+    assert result.exit_code == 0, result.output
+    assert str(vane.GetPath()) in result.stderr and "own space" in result.stderr
+    assert (tmp_path / "moved.glb").exists()

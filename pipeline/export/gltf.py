@@ -29,6 +29,7 @@ they must be there (the asset is baked), and give the atlas resolution.
 
 from __future__ import annotations
 
+import logging
 import os
 import tempfile
 from dataclasses import dataclass, field
@@ -36,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pavonine import LOGGER_NAME
 from pavonine.materials import colour
 from pavonine.materials.display import srgb_encode
 from pavonine.pipeline.bake.asset import bound_meshes, mesh_data, root_layer_path
@@ -353,6 +355,23 @@ def _export_ribbons(out, prim, cache, default, scale, materials, report, childre
     )
 
 
+def _warn_moved_meshes(meshes: list, cache) -> None:
+    """Warn, naming them, about feather meshes a transform moves: the look is fitted at their
+    own points (:func:`~pavonine.pipeline.export.look.look_targets`), the eye is in the asset's
+    space, so their fitted views are off by that transform."""
+    moved = [
+        str(m.GetPath())
+        for m in meshes
+        if not np.allclose(np.array(cache.GetLocalToWorldTransform(m)), np.eye(4))
+    ]
+    if moved:
+        logging.getLogger(LOGGER_NAME).warning(
+            "%s: transformed; the glTF look is fitted in the mesh's own space, not the asset's "
+            "where the eye is, so its colours are fitted for another view",
+            ", ".join(moved),
+        )
+
+
 def fit_viewer(stage, eye=None) -> tuple[np.ndarray, np.ndarray]:
     """The eye the feather's look is fitted for (``eye``, else where ``pavonine view`` frames the
     stage) and the centre of the stage's bound it turns about (world space and units); an eye
@@ -442,6 +461,7 @@ def export_gltf(
                     UsdShade.Tokens.preview
                 )
                 meshes = bound_meshes(stage, default, bound)
+                _warn_moved_meshes(meshes, cache)
                 materials[key] = _feather_material(
                     out, bound, preview, name, meshes, (fit_eye, pivot)
                 )
