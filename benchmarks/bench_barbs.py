@@ -71,7 +71,7 @@ def _train_scene(folder: Path, barbs: bool) -> Path:
     """The shipped train recipe assembled into ``folder`` (front row as barbs if ``barbs``)."""
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     text = TRAIN_RECIPE.read_text().replace('"../feathers/', f'"{REPO / "assets" / "feathers"}/')
     if barbs:

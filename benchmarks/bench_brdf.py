@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 
 
 def main() -> None:

@@ -96,7 +96,7 @@ def upsampled_maps(folder: Path, factor: int) -> Path:
     """The shipped eye feather's maps, bilinearly upsampled ``factor`` times, in ``folder``."""
     from scipy import ndimage
 
-    from pavonine.pipeline.maps.io import read_map, write_map
+    from pavonine.base.map_files import read_map, write_map
     from pavonine.pipeline.maps.paint import MAP_NAMES
 
     for name in MAP_NAMES:

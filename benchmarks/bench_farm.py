@@ -32,7 +32,7 @@ def noop(x: int) -> int:
 
 
 def turntable_jobs(scene: Path, folder: Path, frames: int, size: tuple[int, int]):
-    from pavonine.pipeline.farm.jobs import View, plan
+    from pavonine.apps.farm.jobs import View, plan
     from pavonine.render.turntable import write_turntable_layer
 
     layer = folder / "tt.turntable.usda"
@@ -45,8 +45,8 @@ def turntable_jobs(scene: Path, folder: Path, frames: int, size: tuple[int, int]
 
 def timed_batch(workers: int, threads: int, jobs, warm, spp: int) -> tuple[float, float, object]:
     """(start-up seconds, batch seconds, report) on a fresh local cluster."""
-    from pavonine.pipeline.farm.cluster import open_cluster
-    from pavonine.pipeline.farm.render import run_batch
+    from pavonine.apps.farm.cluster import open_cluster
+    from pavonine.apps.farm.render import run_batch
 
     start = time.perf_counter()
     with open_cluster(workers, threads=threads) as cluster:
@@ -85,9 +85,9 @@ def main() -> None:
         print(f"  speed-up 2 workers vs 1: {one / two:.2f}x (target >= 1.6)")
         print(f"  speed-up 2 workers vs 1 worker using every core: {whole / two:.2f}x")
 
-        from pavonine.pipeline.farm.cluster import open_cluster
-        from pavonine.pipeline.farm.render import make_tasks
-        from pavonine.pipeline.farm.tasks import render_task
+        from pavonine.apps.farm.cluster import open_cluster
+        from pavonine.apps.farm.render import make_tasks
+        from pavonine.apps.farm.tasks import render_task
 
         with open_cluster(1, threads=1) as cluster:
             client = cluster.client

@@ -49,9 +49,9 @@ def main() -> None:
     from rich.console import Console
     from rich.table import Table
 
+    from pavonine.base.shipped import assets_dir
     from pavonine.pipeline.convert import meshing
     from pavonine.pipeline.convert.batch import convert_recipe
-    from pavonine.shipped import assets_dir
 
     recipe = assets_dir() / "recipes" / "eye_feather.toml"
     work = Path(tempfile.mkdtemp(prefix="pavonine-bench-"))

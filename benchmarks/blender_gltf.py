@@ -116,7 +116,7 @@ def _silhouette(scene: Path, maps: Path, width: int, height: int) -> np.ndarray:
     (Pavonine's frame)."""
     from ocellus_zones import feather_hits
 
-    from pavonine.pipeline.maps.io import read_map, sample_bilinear
+    from pavonine.base.map_files import read_map, sample_bilinear
 
     uv, on_vane = feather_hits(scene, width, height)
     _, on_rachis = feather_hits(scene, width, height, mesh="Rachis")
@@ -238,8 +238,8 @@ def main() -> None:
     from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
     from test_gltf_threejs import RESOLUTION, SPP
 
+    from pavonine.apps.cli import cli
     from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
-    from pavonine.pipeline.cli import cli
     from pavonine.pipeline.export import iridescence as irid
     from pavonine.render.api import render_stage
     from pavonine.render.imageio import read_exr, write_png

@@ -47,7 +47,7 @@ def main() -> None:
     asset = args.asset.resolve()
     glb = out / f"{asset.name}.glb"
     start = time.perf_counter()
-    command = [sys.executable, "-m", "pavonine.pipeline.cli", "export", str(asset), "-o", str(glb)]
+    command = [sys.executable, "-m", "pavonine.apps.cli", "export", str(asset), "-o", str(glb)]
     if args.fit_eye == "scene":
         command += ["--eye", *(str(v) for v in scene_eye())]
     subprocess.run([*command, "-q"], check=True)

@@ -140,7 +140,7 @@ def readable_image(resolved: str) -> bool:
     a texture the stage really provides, as opposed to a deliberately missing or corrupt one."""
     import OpenImageIO as oiio
 
-    from pavonine.asset_io import local_file
+    from pavonine.base.asset_io import local_file
 
     if not resolved:
         return False
@@ -234,7 +234,7 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
     """Render one stage (and its texture-blanked twin) and measure; returns the metrics dict."""
     from pxr import Usd
 
-    from pavonine.pipeline.errors import InputError
+    from pavonine.base.errors import InputError
     from pavonine.render.api import render_stage
     from pavonine.render.camera import usd_view_resolution
     from pavonine.render.diagnostics import Diagnostics, StageWarning

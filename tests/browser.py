@@ -39,7 +39,7 @@ CHROMIUM_FLAGS = (
 
 
 #: ``pavonine view`` as the tests start it.
-COMMAND = [sys.executable, "-m", "pavonine.pipeline.cli", "view"]
+COMMAND = [sys.executable, "-m", "pavonine.apps.cli", "view"]
 
 
 def start_view(*args: str, timeout: float = 240.0) -> tuple[subprocess.Popen, str]:

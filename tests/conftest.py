@@ -42,7 +42,7 @@ def _is_cli(args) -> bool:
     """Whether a subprocess's command runs ``pavonine`` (the script or ``-m pavonine…cli``)."""
     words = [args] if isinstance(args, (str, bytes, os.PathLike)) else list(args)
     words = [os.fsdecode(w) if isinstance(w, (bytes, os.PathLike)) else str(w) for w in words]
-    return any(os.path.basename(w) == "pavonine" or w.startswith("pavonine.pipeline.cli")
+    return any(os.path.basename(w) == "pavonine" or w.startswith("pavonine.apps.cli")
                or " pavonine " in f" {w} " for w in words)  # fmt: skip
 
 
@@ -90,7 +90,7 @@ def _no_raw_warnings():
 
 def _drjit_load_error() -> str | None:
     """Why Dr.Jit (so Mitsuba) cannot load here, or None. Checked in a child process: importing
-    Dr.Jit here, before ``pavonine.backend`` has pointed it at a libLLVM, would be too early."""
+    Dr.Jit here, before ``pavonine.base.backend`` has pointed it at a libLLVM, would be too early."""
     if importlib.util.find_spec("drjit") is None:
         return None  # not installed: tests use pytest.importorskip("mitsuba")
     probe = "import drjit"
@@ -127,7 +127,7 @@ if DRJIT_ERROR is not None:
 def restore_variant():
     """Give the test the current Mitsuba variant and select it again afterwards (tests that switch
     to the scalar fallback must not leave the rest of the session in it)."""
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     previous = select_variant().variant
     yield previous
@@ -156,7 +156,7 @@ def scalar_centre(restore_variant):
 
 def missing_system_tools() -> dict[str, str]:
     """Marker → why its tests cannot run here (a system library is missing)."""
-    from pavonine.backend import MIN_LLVM_MAJOR, find_libllvm
+    from pavonine.base.backend import MIN_LLVM_MAJOR, find_libllvm
 
     missing = {}
     if DRJIT_ERROR is not None:
@@ -195,8 +195,8 @@ def pytest_collection_modifyitems(config, items):
 def pytest_runtest_makereport(item, call):
     """When Dr.Jit cannot load, a test that imports Mitsuba anyway is skipped with the reason,
     not failed (the import raised ModuleNotFoundError through ``_Unloadable``, or
-    ``select_variant`` raised :class:`~pavonine.backend.RendererUnavailable`)."""
-    from pavonine.backend import RendererUnavailable
+    ``select_variant`` raised :class:`~pavonine.base.backend.RendererUnavailable`)."""
+    from pavonine.base.backend import RendererUnavailable
 
     outcome = yield
     report = outcome.get_result()

@@ -1,8 +1,8 @@
 """Fault-injection harness: run the real ``pavonine`` CLI in a subprocess, kill it at a named
 commit step, fill its disk or cap its file size, and look at what a reader is left with.
 
-Extend it by adding a checkpoint (``pavonine.pipeline.faults.checkpoint("step", subject)``) to a
-writer, listing the step in ``pavonine.pipeline.faults.STEPS``, and a test in
+Extend it by adding a checkpoint (``pavonine.base.faults.checkpoint("step", subject)``) to a
+writer, listing the step in ``pavonine.base.faults.STEPS``, and a test in
 ``tests/test_crash_safety.py`` that runs the command with ``fault="step"`` and checks the output
 with :func:`snapshot` against the old and the new version.
 """
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from pavonine.pipeline.faults import FAULT_ENV
+from pavonine.base.faults import FAULT_ENV
 
 #: What a killed process returns (``-SIGKILL``).
 KILLED = -signal.SIGKILL
@@ -49,7 +49,7 @@ def pavonine(
     file_size_limit: int | None = None,
     timeout: float = 300,
 ) -> Run:
-    """Run ``python -m pavonine.pipeline.cli ARGS`` in a subprocess.
+    """Run ``python -m pavonine.apps.cli ARGS`` in a subprocess.
 
     ``fault``: the ``PAVONINE_FAULT`` step (``step`` or ``step@subject``) to die at.
     ``file_size_limit``: ``ulimit -f`` in bytes, with ``SIGXFSZ`` ignored so that writes past
@@ -65,7 +65,7 @@ def pavonine(
             signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
             resource.setrlimit(resource.RLIMIT_FSIZE, (file_size_limit, file_size_limit))
 
-    command = [sys.executable, "-m", "pavonine.pipeline.cli", *map(str, args)]
+    command = [sys.executable, "-m", "pavonine.apps.cli", *map(str, args)]
     done = subprocess.run(
         command,
         cwd=cwd,

@@ -459,7 +459,7 @@ def run_cli(args: list[str], seconds: float = 60.0) -> Outcome:
     """Run ``pavonine ARGS`` in this process (click's runner) within ``seconds``."""
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     with time_limit(seconds):
         result = CliRunner().invoke(cli, [str(a) for a in args])

@@ -74,7 +74,7 @@ def zone_masks(stage_path: Path, maps: Path, width: int, height: int) -> dict[in
     (alpha above 0.9, eroded by one pixel)."""
     from scipy import ndimage
 
-    from pavonine.pipeline.maps.io import read_map, sample_bilinear, sample_nearest
+    from pavonine.base.map_files import read_map, sample_bilinear, sample_nearest
     from pavonine.pipeline.maps.paint import ocellar_class
 
     uv, on_vane = feather_hits(stage_path, width, height)

@@ -13,9 +13,9 @@ import pytest
 from click.testing import CliRunner
 from pxr import Sdf, Usd, UsdGeom
 
+from pavonine.apps.cli import cli
 from pavonine.pipeline.assemble.fan import layout
 from pavonine.pipeline.assemble.recipe import parse_train_recipe
-from pavonine.pipeline.cli import cli
 
 REPO = Path(__file__).parents[1]
 RECIPE = REPO / "assets" / "recipes" / "peacock_train.toml"
@@ -66,7 +66,7 @@ def test_stage_has_one_point_instancer_with_the_recipes_prototypes_and_instances
 def test_the_assembly_validates_and_matches_the_shipped_one(train):
     root, _ = train
     done = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "validate", str(root), str(SHIPPED)],
+        [sys.executable, "-m", "pavonine.apps.cli", "validate", str(root), str(SHIPPED)],
         capture_output=True,
         text=True,
     )

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 
 REPO = Path(__file__).resolve().parents[1]
 SCENES = sorted((REPO / "assets" / "scenes").glob("*.usda"))

@@ -9,7 +9,7 @@ import OpenImageIO as oiio
 import pytest
 from pxr import Sdf, Usd, UsdUtils
 
-from pavonine.asset_io import AssetReadError, local_file, read_bytes
+from pavonine.base.asset_io import AssetReadError, local_file, read_bytes
 
 
 def _packaged_texture(tmp_path: Path) -> tuple[Path, str]:

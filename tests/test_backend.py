@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from pavonine import backend
+from pavonine.base import backend
 
 
 def test_llvm_major_parsing():
@@ -26,7 +26,7 @@ def test_found_llvm_is_new_enough():
 def test_fallback_to_scalar_warns_once():
     """With no usable LLVM, select_variant falls back to scalar_spectral with one warning."""
     code = (
-        "import warnings, pavonine.backend as b\n"
+        "import warnings, pavonine.base.backend as b\n"
         "b.find_libllvm = lambda min_major=16: None\n"
         "with warnings.catch_warnings(record=True) as w:\n"
         "    warnings.simplefilter('always')\n"
@@ -50,7 +50,7 @@ def _select_with(libllvm: str, cache: Path) -> tuple[str, str, int]:
     """select_variant() in a fresh process with DRJIT_LIBLLVM_PATH=libllvm: variant, warnings,
     and the exit status (an unusable library used to abort the process natively)."""
     code = (
-        "import warnings, pavonine.backend as b\n"
+        "import warnings, pavonine.base.backend as b\n"
         "with warnings.catch_warnings(record=True) as w:\n"
         "    warnings.simplefilter('always')\n"
         "    chosen = b.select_variant()\n"

@@ -13,6 +13,7 @@ import OpenImageIO as oiio
 import pytest
 from click.testing import CliRunner
 
+from pavonine.apps.cli import cli
 from pavonine.materials import colour, materialx
 from pavonine.materials.optics import COLOUR_WAVELENGTHS_NM, model_for
 from pavonine.materials.parameters import preset
@@ -25,7 +26,6 @@ from pavonine.pipeline.bake.textures import (
     read_data_textures,
     write_textures,
 )
-from pavonine.pipeline.cli import cli
 from pavonine.pipeline.convert.mesh import MeshData
 from pavonine.pipeline.convert.vane import grid_mesh
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from test_recipe import MINIMAL
 
+from pavonine.base.errors import InputError
 from pavonine.pipeline.convert.barb_curves import END_COVERAGE, build_barbs, coverage_map
 from pavonine.pipeline.convert.barbs import barb_direction_field
 from pavonine.pipeline.convert.rachis import RachisSpec
 from pavonine.pipeline.convert.recipe import BarbOptions, parse_recipe
 from pavonine.pipeline.convert.surface import FeatherFrame
-from pavonine.pipeline.errors import InputError
 
 RECIPE = MINIMAL + "[geometry]\nlength_cm = 20\n"
 
@@ -267,7 +267,7 @@ def test_a_train_row_can_take_the_barbs_still_instanced(tmp_path):
     from click.testing import CliRunner
     from pxr import Usd, UsdGeom
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     repo = Path(__file__).parents[1]
     text = (repo / "assets" / "recipes" / "peacock_train.toml").read_text()

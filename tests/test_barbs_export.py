@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 from test_export_gltf import _validator
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 from pavonine.pipeline.export.ribbons import ribbon_mesh
 
 

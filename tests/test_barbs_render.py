@@ -202,7 +202,7 @@ def test_ring_boundaries_on_the_barbs_show_no_texel_staircase(tmp_path):
     from scipy import ndimage
     from test_render_crisp_zones import _boundary_columns, _deviation
 
-    from pavonine.pipeline.maps.io import read_map, sample_nearest
+    from pavonine.base.map_files import read_map, sample_nearest
     from pavonine.render.api import render_stage
     from pavonine.render.imageio import write_png
 

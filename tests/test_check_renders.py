@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.compare import baselines
-from pavonine.pipeline.compare.baselines import (
+from pavonine.apps.cli import cli
+from pavonine.apps.compare import baselines
+from pavonine.apps.compare.baselines import (
     CheckSettings,
     SceneRender,
     baseline_for,
@@ -22,7 +22,7 @@ from pavonine.pipeline.compare.baselines import (
     shipped_scenes,
     update_baseline,
 )
-from pavonine.pipeline.compare.methods import read_image
+from pavonine.apps.compare.methods import read_image
 
 pytestmark = pytest.mark.mitsuba  # the CLI checks that Mitsuba loads first
 

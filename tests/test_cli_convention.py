@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import COMMANDS, cli
-from pavonine.pipeline.cli.options import json_schema
+from pavonine.apps.cli import COMMANDS, cli
+from pavonine.apps.cli.options import json_schema
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"
@@ -151,7 +151,7 @@ def _small_recipe(tmp: Path) -> list[str]:
 
 def _fake_store(tmp: Path, monkeypatch) -> list[str]:
     """A scene and a stand-in renderer (a noisy flat image), so baselines take milliseconds."""
-    from pavonine.pipeline.compare import baselines
+    from pavonine.apps.compare import baselines
 
     def render(stage, settings, *, progress=False, limits=None):
         width, height = settings.resolution
@@ -308,7 +308,7 @@ def test_an_unwritable_json_report_stops_the_command_before_it_writes(
 @click.command("probe")
 def probe() -> None:
     """A command registered only by this test: it has no -v/-q of its own."""
-    from pavonine.pipeline.cli.options import log, say
+    from pavonine.apps.cli.options import log, say
 
     log.debug("debug line")
     log.info("info line")
@@ -336,9 +336,9 @@ def test_threads_option_holds_while_the_command_runs_and_not_after(monkeypatch):
     option was parsed) the process is as it was, so in-process callers never inherit it."""
     import drjit as dr
 
-    from pavonine import backend
-    from pavonine.pipeline.errors import InputError
-    from pavonine.pipeline.farm import cli as farm
+    from pavonine.base import backend
+    from pavonine.apps.farm import cli as farm
+    from pavonine.base.errors import InputError
 
     def state() -> tuple:
         return dr.thread_count(), backend.thread_count(), os.environ.get("OMP_NUM_THREADS")
@@ -398,7 +398,7 @@ BLOCKER = textwrap.dedent(
 
     sys.meta_path.insert(0, Missing())
     import pavonine
-    from pavonine.pipeline.cli import main
+    from pavonine.apps.cli import main
     main(sys.argv[1:])
     """
 )
@@ -496,7 +496,7 @@ def test_the_log_handler_survives_a_closed_earlier_stderr(capsys):
     raise 'I/O operation on closed file' (seen in CI, depending on test order)."""
     import logging
 
-    from pavonine.pipeline.cli.options import _LevelFormatter, _StderrHandler
+    from pavonine.apps.cli.options import _LevelFormatter, _StderrHandler
 
     handler = _StderrHandler()
     handler.setFormatter(_LevelFormatter())

@@ -5,7 +5,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 
 
 @pytest.fixture

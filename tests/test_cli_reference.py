@@ -2,12 +2,12 @@
 
 from pathlib import Path
 
-from pavonine.pipeline.cli.reference import render_reference
+from pavonine.apps.cli.reference import render_reference
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "cli.md"
 
 
 def test_cli_reference_is_current():
     assert DOC.read_text() == render_reference(), (
-        "docs/cli.md is stale: run `python -m pavonine.pipeline.cli.reference > docs/cli.md`"
+        "docs/cli.md is stale: run `python -m pavonine.apps.cli.reference > docs/cli.md`"
     )

@@ -10,7 +10,7 @@ mi = pytest.importorskip("mitsuba")
 
 @pytest.fixture(scope="module")
 def scalar():
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     previous = select_variant().variant
     mi.set_variant("scalar_spectral")

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.compare.methods import (
+from pavonine.apps.cli import cli
+from pavonine.apps.compare.methods import (
     compare_arrays,
     display_decode,
     display_encode,

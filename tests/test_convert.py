@@ -17,12 +17,12 @@ from click.testing import CliRunner
 pytest.importorskip("xatlas", reason="needs the [convert] extra", exc_type=ImportError)
 pytestmark = pytest.mark.convert
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
+from pavonine.base.map_files import read_map, sample_bilinear, write_map
 from pavonine.pipeline.convert.atlas import st_overlap_fraction
 from pavonine.pipeline.convert.surface import FeatherFrame, prefilter
 from pavonine.pipeline.convert.topology import edge_report
 from pavonine.pipeline.convert.vane import triangle_areas
-from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map
 from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps
 from pavonine.schemas.plugin import PLUGIN_DIR
 
@@ -419,8 +419,8 @@ def test_fractional_layer_count_fails_before_meshing_naming_the_recipe_key(workd
 
 
 def test_failed_write_leaves_no_output_folder(workdir, tmp_path, monkeypatch):
+    from pavonine.base.errors import InputError
     from pavonine.pipeline.convert import batch as convert
-    from pavonine.pipeline.errors import InputError
 
     def fail(folder, *args):
         (folder / "partial.usda").write_text("#usda 1.0\n")
@@ -476,8 +476,8 @@ def test_batch_with_one_name_twice_is_rejected_before_converting(workdir, tmp_pa
 
 
 def test_commit_refuses_to_replace_an_asset_without_force(tmp_path):
+    from pavonine.base.errors import InputError
     from pavonine.pipeline.convert.asset import commit_asset
-    from pavonine.pipeline.errors import InputError
 
     target = tmp_path / "eye_feather"
     target.mkdir()

@@ -1,5 +1,5 @@
 """Crash safety (issue 14, "Data loss" and "Outside the output"): the real CLI killed with SIGKILL
-at every named commit step (``PAVONINE_FAULT``, :mod:`pavonine.pipeline.faults`) leaves every
+at every named commit step (``PAVONINE_FAULT``, :mod:`pavonine.base.faults`) leaves every
 output either the complete old version or the complete new one, never a mix or nothing, and
 writes nothing outside its output folder. Harness: ``tests/fault_harness.py``."""
 
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from fault_harness import hidden_entries, pavonine, snapshot, version_of
 
-from pavonine.pipeline.commit import recover
+from pavonine.base.commit import recover
 
 pytestmark = pytest.mark.faults
 
@@ -209,7 +209,7 @@ def test_commit_fallback_without_rename_exchange_crashed_midway_is_completed_by_
     staging = outdir / ".tiny.pavonine-staging-999999999-x"  # its owner: no such process
     shutil.copytree(feathers["work"] / "new" / "tiny", staging)
     script = (
-        "import sys; from pathlib import Path; from pavonine.pipeline import commit; "
+        "import sys; from pathlib import Path; from pavonine.base import commit; "
         "commit.exchange_supported = False; "
         "commit.commit_folder(Path(sys.argv[1]), Path(sys.argv[2]), replace=True)"
     )
@@ -229,7 +229,7 @@ def test_commit_fallback_without_rename_exchange_crashed_midway_is_completed_by_
 
 
 def test_commit_fallback_replaces_the_folder_and_leaves_nothing_hidden(tmp_path, monkeypatch):
-    from pavonine.pipeline import commit
+    from pavonine.base import commit
 
     monkeypatch.setattr(commit, "exchange_supported", False)
     target = tmp_path / "asset"
@@ -255,7 +255,7 @@ def _tree(folder: Path, files: dict[str, str]) -> Path:
 
 
 def test_rename_exchange_swaps_two_folders_in_one_step(tmp_path):
-    from pavonine.pipeline.commit import exchange
+    from pavonine.base.commit import exchange
 
     a, b = _tree(tmp_path / "a", {"x": "A"}), _tree(tmp_path / "b", {"x": "B"})
     if not exchange(a, b):
@@ -375,7 +375,7 @@ def test_maps_crash_leaves_whole_maps_and_recovery_completes_the_set(tmp_path, s
 def test_ctrl_c_in_the_middle_of_a_commit_rolls_it_forward(tmp_path, monkeypatch, step):
     """An interrupt between two renames of a group (or two moves of the fallback) finishes the
     commit before it propagates: never a mix left behind by a handled interruption."""
-    from pavonine.pipeline import commit
+    from pavonine.base import commit
 
     def interrupt(reached: str, subject: str | None = None) -> None:
         if reached == step:
@@ -416,7 +416,7 @@ def test_render_group_killed_between_any_two_renames_is_never_read_as_a_mix(tmp_
     settles the group before reading: it completes the dead writer's commit (the journal is the
     commit point) and reads the new version. Where the journal is gone (a copy without hidden
     files, a read-only folder) the mix is refused in one line naming both files."""
-    from pavonine.pipeline.groups import read_mark
+    from pavonine.base.groups import read_mark
 
     out = tmp_path / "render" / "x.exr"
     files = [out, out.with_suffix(".variance.exr"), out.with_suffix(".png")]
@@ -447,8 +447,8 @@ def test_maps_killed_between_any_two_renames_are_never_read_as_a_mixed_set(tmp_p
     """``maps`` commits six maps by six renames; killed after each of the first five, every
     reader of a map (``read_data_map``: convert, bake, export) completes the set before it reads,
     and refuses a mixed set whose journal is gone, naming the map and the other file."""
-    from pavonine.pipeline.errors import InputError
-    from pavonine.pipeline.maps.io import read_data_map
+    from pavonine.base.errors import InputError
+    from pavonine.base.map_files import read_data_map
 
     outdir = tmp_path / "maps"
     args, versions = map_versions(outdir)
@@ -477,8 +477,8 @@ def test_a_reader_waits_while_a_live_writer_is_between_two_renames(tmp_path):
     import os
     import subprocess
 
-    from pavonine.pipeline.errors import TEMPORARY_MARK, InputError
-    from pavonine.pipeline.groups import check_group, read_mark
+    from pavonine.base.errors import TEMPORARY_MARK, InputError
+    from pavonine.base.groups import check_group, read_mark
     from pavonine.pipeline.maps.paint import generate_maps, write_maps
 
     folder, staging = tmp_path / "maps", tmp_path / "maps" / ".staging"
@@ -522,8 +522,8 @@ def test_a_baseline_mixed_from_two_updates_is_refused_by_its_readers(tmp_path):
     """Where folders cannot be exchanged a baseline is replaced file by file; its files carry
     one group mark (and ``baseline.json`` its id), so ``check-renders`` and ``baseline`` refuse
     a baseline mixed from two updates instead of comparing against it."""
-    from pavonine.pipeline.compare.baselines import load_baseline
-    from pavonine.pipeline.errors import InputError
+    from pavonine.apps.compare.baselines import load_baseline
+    from pavonine.base.errors import InputError
 
     bdir = tmp_path / "baselines"
     args = ("baseline", "update", QUAD, "--resolution", "12x12", "--check-spp", "64",

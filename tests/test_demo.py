@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 
 pytestmark = [pytest.mark.render, pytest.mark.convert]
 
@@ -46,7 +46,7 @@ def test_demo_rejects_a_bad_resolution(tmp_path):
 
 def test_demo_renders_small_on_the_scalar_fallback_and_says_so(tmp_path, monkeypatch):
     """Without libLLVM the default demo would take hours: it renders 96x144 at 8 spp instead."""
-    from pavonine import backend
+    from pavonine.base import backend
     from pavonine.render import api
 
     seen = {}

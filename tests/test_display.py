@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from pavonine.apps.cli import cli
 from pavonine.materials import display
 from pavonine.materials.display import PINNED_CONFIG, REFERENCE_DISPLAY, DisplayTransform
-from pavonine.pipeline.cli import cli
 
 ocio = pytest.importorskip("PyOpenColorIO")
 
@@ -99,7 +99,7 @@ def render_png(tmp_path: Path, name: str, *args: str, env: dict | None = None):
         env=env,
     )  # fmt: skip
     assert result.exit_code == 0, result.output
-    from pavonine.pipeline.compare.methods import _read_pixels
+    from pavonine.apps.compare.methods import _read_pixels
 
     linear, _ = _read_pixels(out)
     png, attributes = _read_pixels(out.with_suffix(".png"))
@@ -123,7 +123,7 @@ def test_ocio_env_changes_the_png_and_compare_reads_it_back(tmp_path, gamma2):
     )
     assert report["display"]["config"] == str(gamma2)
 
-    from pavonine.pipeline.compare.methods import read_image
+    from pavonine.apps.compare.methods import read_image
 
     decoded = read_image(tmp_path / "gamma2.png")  # with the transform the PNG records
     bright = (linear[..., :3] > 0.05) & (linear[..., :3] < 0.95)  # not clipped by the PNG

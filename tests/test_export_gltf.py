@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 from pavonine.pipeline.export import iridescence as irid
 from pavonine.pipeline.export import look
 
@@ -35,7 +35,7 @@ def glb(eye_asset, tmp_path_factory) -> Path:
     assert report["lod"] == "medium" and len(report["meshes"]) == 2
     assert "own space" not in result.stderr  # the asset's meshes are not transformed
     # without --eye, the look is fitted for the eye `pavonine view` frames the asset from
-    from pavonine.pipeline.view.scene import read_scene
+    from pavonine.apps.view.scene import read_scene
 
     page = read_scene(eye_asset.parent, {"lod": "medium"}).camera
     assert report["eye"] == pytest.approx(page["eye"]) and page["path"] is None

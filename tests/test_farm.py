@@ -123,7 +123,7 @@ def local_dask(tmp_path):
 
 def pavonine(*args: str, **kwargs) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", *args],
+        [sys.executable, "-m", "pavonine.apps.cli", *args],
         capture_output=True,
         text=True,
         timeout=600,
@@ -201,7 +201,7 @@ def test_a_worker_killed_mid_run_has_its_task_rescheduled(local_dask, reference,
     command = [
         sys.executable,
         "-m",
-        "pavonine.pipeline.cli",
+        "pavonine.apps.cli",
         "render",
         str(EYE),
         "-o",

@@ -11,9 +11,8 @@ import pytest
 from click.testing import CliRunner
 from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender
 
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.errors import InputError
-from pavonine.pipeline.farm.jobs import (
+from pavonine.apps.cli import cli
+from pavonine.apps.farm.jobs import (
     View,
     frame_label,
     output_name,
@@ -24,7 +23,8 @@ from pavonine.pipeline.farm.jobs import (
     variance_path,
     view_outputs,
 )
-from pavonine.pipeline.farm.merge import merge_means, merge_variances
+from pavonine.apps.farm.merge import merge_means, merge_variances
+from pavonine.base.errors import InputError
 from pavonine.render.imageio import read_exr
 
 REPO = Path(__file__).parents[1]
@@ -218,7 +218,7 @@ def test_batch_input_errors_are_one_line(tmp_path):
 def test_workers_do_not_log_input_errors_but_do_log_bugs():
     import logging
 
-    from pavonine.pipeline.farm.tasks import quiet_input_errors
+    from pavonine.apps.farm.tasks import quiet_input_errors
 
     quiet_input_errors()
     quiet_input_errors()  # once only

@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("mitsuba")  # conftest says why when it cannot load
 pytestmark = pytest.mark.llvm  # vectorised calls: Mitsuba's llvm variant
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 from pavonine.materials import optics
 from pavonine.materials.brdf import direction
 from pavonine.materials.parameters import preset
@@ -245,7 +245,7 @@ def test_angle_map_is_relative_to_the_barb_tangent():
 
 SCALAR_CHECK = """
 import numpy as np
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 select_variant("scalar_spectral")
 import drjit as dr
 import mitsuba as mi
@@ -309,11 +309,11 @@ def test_instance_table_length_does_not_enter_the_kernel():
 def test_a_colour_map_is_read_as_its_rec709_luma_as_convert_reads_it(tmp_path):
     """The renderer reads a map through Mitsuba's raw bitmap and ``eval_1``, which gives an RGB
     image's luminance (Rec. 709 weights), not its first channel; ``convert`` and ``bake`` reduce
-    RGB maps to the same luma (pipeline/maps/io.py), so a hand-made colour map means the same
+    RGB maps to the same luma (base/map_files.py), so a hand-made colour map means the same
     to all three."""
     import OpenImageIO as oiio
 
-    from pavonine.pipeline.maps.io import grey_values
+    from pavonine.base.map_files import grey_values
     from pavonine.render.feather_bsdf import _bitmap
 
     rgb = np.zeros((4, 4, 3), np.float32)

@@ -39,7 +39,7 @@ from hostile import (
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pavonine.pipeline.errors import InputError
+from pavonine.base.errors import InputError
 
 #: A numpy warning (an overflowing cast, an invalid value) is an unhandled case: fail on it.
 pytestmark = [pytest.mark.fuzz, pytest.mark.filterwarnings("error::RuntimeWarning")]
@@ -64,7 +64,7 @@ def examples(count: int):
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
     """Six valid 16x32 maps, a component asset, odd files and a tiny EXR pair."""
-    from pavonine.pipeline.maps.io import write_map
+    from pavonine.base.map_files import write_map
 
     folder = tmp_path_factory.mktemp("fuzz")
     for name in MAP_NAMES:
@@ -145,7 +145,7 @@ def test_convert_of_hostile_recipes_is_clean(workspace, tmp_path_factory, data):
 @examples(80)
 @given(spec=map_specs)
 def test_maps_read_or_fail_on_one_line(tmp_path_factory, spec):
-    from pavonine.pipeline.maps.io import read_data_map
+    from pavonine.base.map_files import read_data_map
 
     path = spec.write(tmp_path_factory.mktemp("map") / "m")
     with time_limit(10):

@@ -29,7 +29,7 @@ import usd_fuzz
 from click.testing import CliRunner
 from hypothesis import HealthCheck, event, given, settings
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 
 pytestmark = pytest.mark.mitsuba
 

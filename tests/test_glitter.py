@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 from pavonine.materials import barbule, glitter, optics
 from pavonine.materials.arraymath import NUMPY
 from pavonine.materials.brdf import direction

@@ -125,7 +125,7 @@ def test_threejs_draws_the_model_the_fit_inverts(tmp_path, weight, thickness, ro
 def test_exported_glb_in_threejs_matches_the_render_face_on_and_tilted(eye_asset, tmp_path):
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     glb = tmp_path / "eye_feather.glb"
     eye = [str(v) for v in scene_eye()]  # the look fitted for the scene's camera

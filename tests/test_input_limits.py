@@ -1,5 +1,5 @@
 """Issue 14, hostile input: each case the issue lists, as a named test, and the input limits
-(``pavonine.limits``, docs/reliability.md "Input limits").
+(``pavonine.base.limits``, docs/reliability.md "Input limits").
 
 Every case ends in one line ``error: <file or field>: <message>`` and exit 2 (checked by
 :func:`hostile.assert_clean`), within a time limit, writing nothing.
@@ -29,8 +29,8 @@ from hostile import (
     to_toml,
 )
 
-from pavonine import limits
-from pavonine.pipeline.errors import InputError
+from pavonine.base import limits
+from pavonine.base.errors import InputError
 
 SHIPPED_SCENE = Path(__file__).resolve().parents[1] / "assets" / "scenes" / "blue_feather_sun.usda"
 
@@ -55,7 +55,7 @@ def huge_pngs(tmp_path_factory) -> dict[str, Path]:
 
 
 def write_maps(folder: Path, width: int, height: int) -> Path:
-    from pavonine.pipeline.maps.io import write_map
+    from pavonine.base.map_files import write_map
 
     for name in MAP_NAMES:
         write_map(folder / f"{name}.png", np.full((height, width), 1.0 if name == "alpha" else 0.5))
@@ -329,8 +329,8 @@ def test_pixel_budget_lasts_as_long_as_the_command(monkeypatch, decorator, fails
     import click
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli.limits import limit_options
-    from pavonine.pipeline.cli.values import max_pixels_option
+    from pavonine.apps.cli.limits import limit_options
+    from pavonine.apps.cli.values import max_pixels_option
 
     monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
     seen = []
@@ -358,7 +358,7 @@ def test_pixel_budget_lasts_as_long_as_the_command(monkeypatch, decorator, fails
 def test_pixel_budget_is_reset_after_a_real_command_refused_by_it(tmp_path, monkeypatch):
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
     png = real_png(tmp_path / "small.png", 16, 16)
@@ -379,7 +379,7 @@ def test_pixel_budget_survives_a_usage_error_and_the_garbage_collector(monkeypat
 
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     monkeypatch.delenv(limits.MAX_PIXELS_ENV, raising=False)
     result = CliRunner().invoke(cli, ["validate", "--max-pixels", "5"])
@@ -392,7 +392,7 @@ def test_pixel_budget_survives_a_usage_error_and_the_garbage_collector(monkeypat
 
 
 def test_map_header_declaring_far_more_pixels_than_it_holds(tmp_path):
-    from pavonine.pipeline.maps.io import read_map
+    from pavonine.base.map_files import read_map
 
     odd = odd_files(tmp_path)
     with time_limit(20), pytest.raises(InputError, match="pixel budget"):
@@ -402,7 +402,7 @@ def test_map_header_declaring_far_more_pixels_than_it_holds(tmp_path):
 def test_map_with_nan_pixels_names_the_file_and_field(tmp_path):
     from hostile import MapSpec
 
-    from pavonine.pipeline.maps.io import read_map
+    from pavonine.base.map_files import read_map
 
     path = MapSpec(8, 8, 1, "float", ".exr", nans=3).write(tmp_path / "nan")
     with pytest.raises(InputError) as caught:
@@ -424,7 +424,7 @@ def _float_exr(path: Path, pixels: np.ndarray) -> Path:
 def test_float_map_out_of_range_names_the_file_and_field(tmp_path, value, words):
     """Values beyond [0, 1] are refused, not clipped; within ``RANGE_TOLERANCE`` (float round-off)
     they are read, clamped."""
-    from pavonine.pipeline.maps.io import RANGE_TOLERANCE, read_map
+    from pavonine.base.map_files import RANGE_TOLERANCE, read_map
 
     pixels = np.full((8, 8), value)
     pixels[0, 0] = 0.5
@@ -509,8 +509,8 @@ def test_every_float_option_refuses_nan():
     """Every float option of every command is a FiniteFloat: NaN passes ``value <= 0``."""
     import click
 
-    from pavonine.pipeline.cli import COMMANDS, cli
-    from pavonine.pipeline.cli.values import FiniteFloat
+    from pavonine.apps.cli import COMMANDS, cli
+    from pavonine.apps.cli.values import FiniteFloat
 
     ctx = click.Context(cli)
     floats = []
@@ -549,7 +549,7 @@ def test_env_lines_are_shell_safe_when_evaluated(tmp_path, shell):
     for value in HOSTILE_PATHS:
         env = {**os.environ, "PXR_PLUGINPATH_NAME": value}
         printed = subprocess.run(
-            [sys.executable, "-m", "pavonine.pipeline.cli", "env", "--shell", "sh"],
+            [sys.executable, "-m", "pavonine.apps.cli", "env", "--shell", "sh"],
             env=env,
             capture_output=True,
             text=True,
@@ -590,7 +590,7 @@ def test_env_quoting_for_powershell_and_fish_by_rule(value):
     """pwsh and fish are not installed here: their single-quote rules, applied to the printed
     line, must give back the value (PowerShell: every quote character, typographic ones too,
     ends a string unless doubled; fish: backslash escapes backslash and quote)."""
-    from pavonine.pipeline.cli.env import POWERSHELL_QUOTES, assignment
+    from pavonine.apps.cli.env import POWERSHELL_QUOTES, assignment
 
     line = assignment("PXR_PLUGINPATH_NAME", value, "powershell")
     assert _single_quoted(line, "$env:PXR_PLUGINPATH_NAME = ", POWERSHELL_QUOTES, False) == value
@@ -608,7 +608,7 @@ def _cpu_seconds(pid: int) -> float:
 def test_ctrl_c_is_one_line_and_exit_130(tmp_path):
     out = tmp_path / "maps"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "maps", "eye", "--size", "4096", "-o", str(out)],
+        [sys.executable, "-m", "pavonine.apps.cli", "maps", "eye", "--size", "4096", "-o", str(out)],
         stderr=subprocess.PIPE,
         text=True,
     )  # fmt: skip
@@ -651,11 +651,11 @@ def console_script(tmp_path: Path) -> Path:
     return script
 
 
-#: Where Pavonine's own code lives (the import names' folders, pyproject.toml's package-dir).
-PAVONINE_CODE = [Path(__file__).parents[1] / d for d in ("pavonine", "pipeline", "render",
-                                                         "materials", "schemas")]  # fmt: skip
-#: Pavonine's first lines, which arm its Ctrl-C handling (pavonine/__init__.py → pavonine.console).
-ARMING = ("pavonine/__init__.py", "pavonine/console.py")
+#: Where Pavonine's own code lives (src/, each folder its import path).
+PAVONINE_CODE = [Path(__file__).parents[1] / "src" / "pavonine"]
+#: Pavonine's first lines, which arm its Ctrl-C handling (pavonine/__init__.py →
+#: pavonine.base.interrupt).
+ARMING = ("pavonine/__init__.py", "pavonine/base/__init__.py", "pavonine/base/interrupt.py")
 
 
 def _before_pavonine_code(stderr: str) -> bool:
@@ -663,7 +663,7 @@ def _before_pavonine_code(stderr: str) -> bool:
     the interpreter's own initialisation (its streams, ``site`` and the ``.pth`` files), or in
     the console script's ``from pavonine.console import main`` while importlib (and an editable
     install's finder) looks for the package and the first line of ``pavonine/__init__.py``
-    imports :mod:`pavonine.console`. No other frame may be Pavonine's code."""
+    imports :mod:`pavonine.base.interrupt`. No other frame may be Pavonine's code."""
     if stderr.startswith("Fatal Python error: init_"):  # init_import_site, init_sys_streams…
         return True
     if "KeyboardInterrupt" not in stderr:
@@ -759,7 +759,7 @@ def test_a_truncated_png_map_is_one_line_without_libpngs_own(tmp_path):
     recipe = recipe_file(tmp_path, maps)
     out = tmp_path / "out"
     done = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "convert", str(recipe), "-o", str(out)],
+        [sys.executable, "-m", "pavonine.apps.cli", "convert", str(recipe), "-o", str(out)],
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert done.returncode == 2, done.stderr

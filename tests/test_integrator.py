@@ -10,7 +10,7 @@ import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdShade
 from test_render_geometry_images import SIZE, lit_stage
 
-from pavonine.pipeline.compare.methods import stat_test
+from pavonine.apps.compare.methods import stat_test
 from pavonine.render import api, integrator
 from pavonine.render.diagnostics import StageWarning
 
@@ -152,7 +152,7 @@ def furnace(albedo: float, seed: int, max_depth: int = -1, rr_threshold: float =
     diffusely with ``albedo`` (``pavonine_path`` in a Mitsuba scene, 16×16 @ 64 spp)."""
     import mitsuba as mi
 
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     select_variant()
     integrator.register()

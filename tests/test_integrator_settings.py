@@ -13,9 +13,9 @@ from click.testing import CliRunner
 from pxr import Gf, Sdf, Usd, UsdLux, UsdRender
 from render_helpers import bind, new_stage, preview, quad, render
 
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.compare.methods import stat_test
-from pavonine.pipeline.errors import InputError
+from pavonine.apps.cli import cli
+from pavonine.apps.compare.methods import stat_test
+from pavonine.base.errors import InputError
 from pavonine.render.diagnostics import Diagnostics, StageWarning
 from pavonine.render.integrator_settings import IntegratorSpec, read_integrator, read_sample_count
 

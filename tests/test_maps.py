@@ -12,8 +12,8 @@ import OpenImageIO as oiio
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.maps.io import read_map, sample_bilinear, write_map
+from pavonine.apps.cli import cli
+from pavonine.base.map_files import read_map, sample_bilinear, write_map
 from pavonine.pipeline.maps.paint import (
     KINDS,
     MAP_NAMES,

@@ -50,7 +50,7 @@ def test_translation_reaches_the_renderer_and_the_inputs_check_can_fail(
     from pxr import UsdShade
     from render_helpers import image
 
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
     from pavonine.render.diagnostics import Diagnostics
     from pavonine.render.shading import translate_material
 

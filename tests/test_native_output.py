@@ -1,4 +1,4 @@
-"""Native output kept off the command's streams (pavonine/native_output.py)."""
+"""Native output kept off the command's streams (base/native_output.py)."""
 
 import contextlib
 import os
@@ -8,7 +8,7 @@ import threading
 def test_descriptors_moved_on_threads_come_back():
     """Threads that each silence or capture descriptor 2 at once leave it where it was: without
     the lock one thread restored the other's /dev/null and a command's error line vanished."""
-    from pavonine.native_output import captured, silenced
+    from pavonine.base.native_output import captured, silenced
 
     before = os.fstat(2)
     barrier = threading.Barrier(4, timeout=10)
@@ -33,7 +33,7 @@ def test_a_block_on_another_thread_never_waits_for_an_open_one():
     """USD's validators run on worker threads inside validate's silenced block and capture
     libpng's lines there: holding a lock across the outer block deadlocked ``pavonine
     validate``."""
-    from pavonine.native_output import captured, silenced
+    from pavonine.base.native_output import captured, silenced
 
     done = threading.Event()
 
@@ -53,7 +53,7 @@ def test_a_block_on_another_thread_never_waits_for_an_open_one():
 def test_the_newest_open_block_takes_the_descriptor_and_the_oldest_restores_it():
     """Blocks closing out of order (A opens, B opens, A closes, B closes) leave the descriptor on
     B's target until B closes, then on the original."""
-    from pavonine import native_output
+    from pavonine.base import native_output
 
     before = os.fstat(2)
     a, b = native_output.captured(2), native_output.captured(2)

@@ -161,7 +161,7 @@ def test_crescent_density_leans_towards_the_light():
 @pytest.mark.llvm
 def test_crescent_density_is_beckmann_visible_normals_in_plane():
     """Eq. 6 vs an independent method: visible-normal sampling of the renderer's distribution."""
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     select_variant()
     import mitsuba as mi

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 
 SCENE = Path(__file__).resolve().parents[1] / "assets" / "scenes" / "eye_feather_sun.usda"
 

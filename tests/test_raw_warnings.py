@@ -46,7 +46,7 @@ def lit_quad(folder: Path, name: str, intensity: str = "10", exposure: str = "0"
 def run(*args):
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     return CliRunner().invoke(cli, [str(a) for a in args])
 
@@ -60,7 +60,7 @@ def test_the_check_knows_python_and_numpy_warnings_from_the_commands_own_lines()
 
 
 def test_a_library_warning_inside_a_command_is_a_warning_line(capsys):
-    from pavonine.pipeline.cli.options import configure_logging, warnings_as_lines
+    from pavonine.apps.cli.options import configure_logging, warnings_as_lines
 
     configure_logging()
     with warnings_as_lines():

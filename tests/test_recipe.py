@@ -6,9 +6,9 @@ import dataclasses
 
 import pytest
 
+from pavonine.base.errors import InputError
 from pavonine.materials.parameters import freyer_class, preset
 from pavonine.pipeline.convert.recipe import GeometryOptions, LodTargets, asset_seed, parse_recipe
-from pavonine.pipeline.errors import InputError
 
 MINIMAL = """\
 name = "eye_feather"

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from pavonine.pipeline.cli import cli
-from pavonine.pipeline.errors import InputError
+from pavonine.apps.cli import cli
+from pavonine.base.errors import InputError
 from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.imageio import read_exr
@@ -75,7 +75,7 @@ def test_map_of_another_aspect_warns_naming_the_file_and_attribute(tmp_path):
     the odd map over the feather and says so, naming the attribute and the file."""
     import shutil
 
-    from pavonine.pipeline.maps.io import write_map
+    from pavonine.base.map_files import write_map
 
     asset = tmp_path / "blue_feather"
     shutil.copytree(Path(__file__).parents[1] / "assets" / "feathers" / "blue_feather", asset)

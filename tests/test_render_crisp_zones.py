@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("mitsuba")  # conftest says why when it cannot load
 from glint_scene import EYE, closeup_stage
 
-from pavonine.pipeline.maps.io import read_map, sample_nearest
+from pavonine.base.map_files import read_map, sample_nearest
 from pavonine.render.api import render_stage
 
 pytestmark = pytest.mark.render

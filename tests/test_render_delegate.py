@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from pavonine.backend import select_variant
-from pavonine.pipeline.errors import InputError
+from pavonine.base.backend import select_variant
+from pavonine.base.errors import InputError
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, StageWarning
 from pavonine.render.settings import read_render_settings

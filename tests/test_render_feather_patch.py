@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("mitsuba")  # conftest says why when it cannot load
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 from pavonine.materials import colour, optics
 from pavonine.materials.brdf import direction
 from pavonine.materials.parameters import FeatherParameters, preset

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 from pavonine.render import shapes, subdivision
 from pavonine.render.delegate import StageDelegate, render_time
 from pavonine.render.diagnostics import Diagnostics, StageWarning

@@ -7,8 +7,8 @@ import pytest
 pytest.importorskip("mitsuba")  # conftest says why when it cannot load
 from glint_scene import closeup_stage
 
+from pavonine.base.map_files import read_map, sample_nearest
 from pavonine.materials import colour
-from pavonine.pipeline.maps.io import read_map, sample_nearest
 from pavonine.render.api import render_stage
 
 pytestmark = pytest.mark.render

@@ -194,7 +194,7 @@ def test_the_profile_point_light_starts_light_paths_as_it_ends_them():
     (path tracing): Mitsuba's ``ptracer`` and ``path`` see the same floor under a 30° step."""
     import mitsuba as mi
 
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
     from pavonine.render.lights import ies_emitter
     from pavonine.render.lights.common import bitmap, transform
 

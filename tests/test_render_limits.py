@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavonine.pipeline.errors import InputError
+from pavonine.base.errors import InputError
 from pavonine.render.limits import MAX_INSTANCES, MAX_PIXELS, MAX_SPP, RenderLimits
 
 pytestmark = pytest.mark.mitsuba
@@ -84,7 +84,7 @@ def pavonine(*args, timeout: float | None = None) -> subprocess.CompletedProcess
     run past ``timeout`` seconds fails the test as a hang (the cases that used to hang)."""
     if timeout is None:
         return in_process(*args)
-    command = [sys.executable, "-m", "pavonine.pipeline.cli", *map(str, args)]
+    command = [sys.executable, "-m", "pavonine.apps.cli", *map(str, args)]
     try:
         return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -97,7 +97,7 @@ def in_process(*args) -> subprocess.CompletedProcess:
 
     from click.testing import CliRunner
 
-    from pavonine.pipeline.cli import cli
+    from pavonine.apps.cli import cli
 
     result = CliRunner().invoke(cli, [str(a) for a in args])
     stderr = result.stderr
@@ -343,7 +343,7 @@ def test_validate_truncated_payload_usdc_reports_findings_not_a_traceback(tmp_pa
 def test_ctrl_c_during_a_render_exits_130_with_one_line_and_no_output(tmp_path):
     stage = scene(tmp_path)  # 1.3 billion samples: minutes of passes, whatever Dr.Jit has cached
     out = tmp_path / "long.exr"
-    command = [sys.executable, "-m", "pavonine.pipeline.cli", "render", str(stage), "-o",
+    command = [sys.executable, "-m", "pavonine.apps.cli", "render", str(stage), "-o",
                str(out), "--resolution", "320x240", "--spp", "16384", "-q"]  # fmt: skip
     child = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
     time.sleep(6)

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from pxr import Gf, Sdf, UsdGeom, UsdRender
 from render_helpers import bind, new_stage, patch, preview, quad, render, sun
 
-from pavonine.pipeline.cli import cli
+from pavonine.apps.cli import cli
 
 pytestmark = pytest.mark.render
 ALBEDO = (0.6, 0.3, 0.1)

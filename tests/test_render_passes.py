@@ -59,7 +59,7 @@ def test_a_pass_of_an_instanced_scene_traces_each_loop_body_once_and_restores_th
     trace, so its passes record each loop once (``trace_loops_once``, set by the caller for
     scenes with instances); other scenes keep the flag (a Dr.Jit 1.5.0 bug emits a callable twice
     without it, see ``render_pass``). The flag is left as it was found."""
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     select_variant()
     import drjit as dr
@@ -96,7 +96,7 @@ def test_what_native_code_prints_during_a_pass_becomes_a_warning(capfd):
     terminal) comes out as a ``pavonine`` warning, not as raw text on descriptor 2."""
     import logging
 
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     select_variant()
     records: list[logging.LogRecord] = []
@@ -118,7 +118,7 @@ def test_what_native_code_prints_during_a_pass_becomes_a_warning(capfd):
 def test_captured_gives_the_lines_and_puts_the_descriptor_back(capfd):
     import os
 
-    from pavonine.native_output import captured
+    from pavonine.base.native_output import captured
 
     with pytest.raises(RuntimeError), captured(2) as lines:
         os.write(2, b"one\n\ntwo\n")

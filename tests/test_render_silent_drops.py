@@ -18,7 +18,7 @@ import pytest
 from pxr import Gf, Sdf, Sdr, Usd, UsdGeom, UsdLux
 from render_helpers import bind, image, new_stage, preview, quad, render, sun
 
-from pavonine.backend import select_variant
+from pavonine.base.backend import select_variant
 from pavonine.render.delegate import StageDelegate
 from pavonine.render.diagnostics import Diagnostics, StageWarning
 from pavonine.render.lights.common import NOT_LIGHTING, VIEWPORT_ONLY, lux_property_names

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavonine.pipeline.compare.methods import compare_arrays
-from pavonine.pipeline.compare.report import SceneEntry, write_report
+from pavonine.apps.compare.methods import compare_arrays
+from pavonine.apps.compare.report import SceneEntry, write_report
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 

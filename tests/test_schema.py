@@ -237,7 +237,7 @@ def test_env_line_makes_schema_visible_to_a_process_without_pavonine(tmp_path):
     create_feather_material(stage, "/Feather", preset("blue"))
     stage.GetRootLayer().Save()
     env_line = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "env"],
+        [sys.executable, "-m", "pavonine.apps.cli", "env"],
         capture_output=True,
         text=True,
         env={k: v for k, v in os.environ.items() if k != "PXR_PLUGINPATH_NAME"},

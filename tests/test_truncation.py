@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavonine.pipeline.errors import InputError, write_error
-from pavonine.pipeline.truncation import (
+from pavonine.base.errors import InputError, write_error
+from pavonine.base.truncation import (
     cut_short,
     refuse_size_other_than,
     save_whole,
@@ -31,7 +31,7 @@ def _cuts(path: Path) -> list[int]:
 
 @pytest.mark.parametrize("suffix", [".png", ".exr"])
 def test_a_map_cut_short_anywhere_is_found_and_the_whole_one_passes(tmp_path, suffix):
-    from pavonine.pipeline.maps.io import write_map
+    from pavonine.base.map_files import write_map
 
     whole = tmp_path / f"map{suffix}"
     write_map(whole, np.random.default_rng(1).random((300, 200), dtype=np.float32))
@@ -110,7 +110,7 @@ def test_a_full_disk_while_copying_names_the_output_not_the_source(tmp_path):
 
 
 def test_a_full_disk_while_copying_is_one_line_naming_the_output_at_the_command_line(capsys):
-    from pavonine.pipeline.errors import one_line_errors
+    from pavonine.base.errors import one_line_errors
 
     @one_line_errors
     def command() -> None:
@@ -123,7 +123,7 @@ def test_a_full_disk_while_copying_is_one_line_naming_the_output_at_the_command_
 
 def test_a_staged_folder_whose_name_is_too_long_leaves_no_folder(tmp_path):
     """The clean-up's own existence check raised 'File name too long' and left ``out/``."""
-    from pavonine.pipeline.commit import staged_folder
+    from pavonine.base.commit import staged_folder
 
     with pytest.raises(InputError, match="File name too long"):
         with staged_folder(tmp_path / "out" / ("a" * 300), replace=False):
@@ -140,7 +140,7 @@ def _recipe(tmp_path: Path, name: str) -> Path:
 
 
 def test_a_name_longer_than_the_file_system_allows_is_refused_when_the_recipe_is_read(tmp_path):
-    from pavonine.limits import NAME_OVERHEAD
+    from pavonine.base.limits import NAME_OVERHEAD
     from pavonine.pipeline.convert.recipe import parse_recipe
 
     name_max = os.pathconf(tmp_path, "PC_NAME_MAX")
@@ -156,7 +156,7 @@ def test_a_name_longer_than_the_file_system_allows_is_refused_when_the_recipe_is
 
 
 def test_a_name_making_the_deepest_path_longer_than_path_max_is_refused_with_the_limit(tmp_path):
-    from pavonine.limits import name_too_long
+    from pavonine.base.limits import name_too_long
 
     path_max = os.pathconf(tmp_path, "PC_PATH_MAX")
     deep = tmp_path / "/".join(["d" * 200] * ((path_max - 400) // 201))

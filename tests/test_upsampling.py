@@ -14,7 +14,7 @@ COLOURS += [tuple(c) for c in np.random.default_rng(1).uniform(0.05, 0.9, (8, 3)
 
 @pytest.mark.parametrize("rgb", COLOURS, ids=lambda c: "_".join(f"{v:.2f}" for v in c))
 def test_fit_gives_mitsubas_spectrum(rgb):
-    from pavonine.backend import select_variant
+    from pavonine.base.backend import select_variant
 
     select_variant()
     wavelengths = np.arange(360.0, 831.0, 1.0)

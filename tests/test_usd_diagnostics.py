@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from pavonine.pipeline.cli.usd_diagnostics import usd_warning_line
+from pavonine.apps.cli.usd_diagnostics import usd_warning_line
 
 DATA = Path(__file__).parent / "data" / "render"
 
@@ -35,7 +35,7 @@ def _missing_reference(folder: Path) -> Path:
 
 
 def _pavonine(*args: str) -> subprocess.CompletedProcess:
-    command = [sys.executable, "-m", "pavonine.pipeline.cli", *args]
+    command = [sys.executable, "-m", "pavonine.apps.cli", *args]
     return subprocess.run(command, capture_output=True, text=True, timeout=300)
 
 
@@ -55,8 +55,8 @@ def test_usd_warnings_become_one_log_line_each_unless_refused_or_reported(tmp_pa
 
     from pxr import Usd
 
-    from pavonine.pipeline.cli.usd_diagnostics import REPORTED, usd_warnings_to_log
-    from pavonine.pipeline.errors import InputError
+    from pavonine.apps.cli.usd_diagnostics import REPORTED, usd_warnings_to_log
+    from pavonine.base.errors import InputError
 
     stage = _missing_reference(tmp_path)
     logger = logging.getLogger("test_usd_diagnostics")  # not under "pavonine": its own handler

@@ -16,8 +16,8 @@ import textwrap
 
 import pytest
 
+from pavonine.apps.cli.env import SDR_EXTS_ENV_VAR, SDR_PATHS_ENV_VAR
 from pavonine.materials.materialx import MTLX_PATH, NODEDEF
-from pavonine.pipeline.cli.env import SDR_EXTS_ENV_VAR, SDR_PATHS_ENV_VAR
 from pavonine.schemas import plugin
 
 #: Run in the child before anything else: pavonine cannot be imported there.
@@ -75,7 +75,7 @@ def _clean_env() -> dict[str, str]:
 def _run_with_env_lines(args: list[str], asset, probe: str = PROBE, drop=()) -> dict:
     """``eval "$(pavonine env ARGS)"`` in a shell (without the lines setting a variable in
     ``drop``), then a fresh ``python -I`` running ``probe``."""
-    pavonine = [sys.executable, "-m", "pavonine.pipeline.cli", "env", *args]
+    pavonine = [sys.executable, "-m", "pavonine.apps.cli", "env", *args]
     lines = subprocess.run(
         pavonine, capture_output=True, text=True, check=True, env=_clean_env()
     ).stdout
@@ -97,7 +97,7 @@ def _run_with_env_lines(args: list[str], asset, probe: str = PROBE, drop=()) -> 
 
 def test_env_prints_the_schema_and_the_materialx_search_path():
     out = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "env"],
+        [sys.executable, "-m", "pavonine.apps.cli", "env"],
         capture_output=True,
         text=True,
         check=True,
@@ -110,7 +110,7 @@ def test_env_prints_the_schema_and_the_materialx_search_path():
         "export PXR_SDR_FS_PLUGIN_ALLOWED_EXTS=usda",
     ]
     with_validators = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "env", "--validators"],
+        [sys.executable, "-m", "pavonine.apps.cli", "env", "--validators"],
         capture_output=True,
         text=True,
         check=True,
@@ -122,7 +122,7 @@ def test_env_prints_the_schema_and_the_materialx_search_path():
     )
     # Sdr's extension list is appended to, not replaced (another studio's OSL shaders, say).
     other_exts = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "env"],
+        [sys.executable, "-m", "pavonine.apps.cli", "env"],
         capture_output=True,
         text=True,
         check=True,
@@ -165,7 +165,7 @@ def test_validators_opt_in_loads_pavonines_validators_where_pavonine_is_importab
 def test_validators_plugin_in_a_python_without_pavonine_is_the_documented_failure(eye_asset):
     """Why validators are opt-in: a Python that cannot import pavonine must not get them."""
     lines = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "env", "--validators"],
+        [sys.executable, "-m", "pavonine.apps.cli", "env", "--validators"],
         capture_output=True,
         text=True,
         check=True,

@@ -12,8 +12,8 @@ import pytest
 from click.testing import CliRunner
 
 import pavonine  # noqa: F401
+from pavonine.apps.cli import cli
 from pavonine.materials.parameters import preset
-from pavonine.pipeline.cli import cli
 from pavonine.schemas.authoring import create_feather_material
 
 DATA = Path(__file__).resolve().parent / "data" / "schema"
@@ -201,7 +201,7 @@ def test_single_channel_map_with_bad_pixels_is_an_error_naming_file_and_attribut
     out-of-range values are errors, as ``convert`` refuses them (docs/pipeline.md: in [0, 1])."""
     path, stage = authored_asset(tmp_path)
     if damage == "truncated":  # noise, so that half of the file is well past its header
-        from pavonine.pipeline.maps.io import write_map
+        from pavonine.base.map_files import write_map
 
         file = tmp_path / "maps" / f"{key}.png"
         write_map(file, np.random.default_rng(1).random((32, 32)))
@@ -218,7 +218,7 @@ def test_single_channel_map_with_bad_pixels_is_an_error_naming_file_and_attribut
 
 
 def test_float_map_within_the_round_off_tolerance_is_clean(tmp_path):
-    from pavonine.pipeline.maps.io import RANGE_TOLERANCE
+    from pavonine.base.map_files import RANGE_TOLERANCE
 
     path, stage = authored_asset(tmp_path)
     use_map(stage, "melanin", write_exr(tmp_path / "maps" / "melanin.exr", 1 + RANGE_TOLERANCE / 2))

@@ -79,7 +79,7 @@ def _zones(view: dict, scene_camera: dict, folder: Path) -> np.ndarray:
     """Ocellar class per pixel (−1: not the vane or alpha ≤ 0.9), eroded by one pixel."""
     from ocellus_zones import zone_masks
 
-    from pavonine.pipeline.view.viewpoint import write_view_layer
+    from pavonine.apps.view.viewpoint import write_view_layer
 
     stub = SimpleNamespace(
         stage_path=SCENE.resolve(),

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pavonine.apps.view import tables
 from pavonine.materials.brdf import direction
 from pavonine.materials.colour import delta_e2000, linear_srgb_to_lab
-from pavonine.pipeline.view import tables
 
 EYE = (
     Path(__file__).resolve().parents[1] / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"

@@ -107,7 +107,7 @@ def test_the_build_lists_every_data_folder_as_a_package(installed):
 
 
 def test_wheel_carries_the_shipped_data_and_the_licence(installed):
-    from pavonine.pipeline.view.server import STATIC as VIEW_STATIC
+    from pavonine.apps.view.server import STATIC as VIEW_STATIC
 
     wheel, _ = installed
     names = set(zipfile.ZipFile(wheel).namelist())
@@ -127,8 +127,8 @@ def test_wheel_carries_the_shipped_data_and_the_licence(installed):
         "pavonine/schemas/shaderDefs/ND_image_float.usda",
         "pavonine-0.1.0.dist-info/licenses/LICENSE",
         # pavonine view's page and the vendored three.js with its licence (nothing fetched)
-        *(f"pavonine/pipeline/view/static/{n}" for n in VIEW_STATIC),
-        "pavonine/pipeline/view/static/vendor/LICENSE.three",
+        *(f"pavonine/apps/view/static/{n}" for n in VIEW_STATIC),
+        "pavonine/apps/view/static/vendor/LICENSE.three",
     ):
         assert name in names, name
     assert not [n for n in names if n.startswith(("tests/", "docs/", "benchmarks/"))]
@@ -147,7 +147,7 @@ def test_installed_package_is_the_wheel_not_the_checkout(installed):
     _, where = installed
     probe = run(
         where["venv"] / "bin" / "python", "-c",
-        "import pavonine, pavonine.shipped as s; print(pavonine.__file__); print(s.assets_dir())",
+        "import pavonine, pavonine.base.shipped as s; print(pavonine.__file__); print(s.assets_dir())",
         cwd=where["cwd"], env=where["env"],
     )  # fmt: skip
     assert probe.returncode == 0, probe.stderr
@@ -174,7 +174,7 @@ def test_check_renders_and_baselines_from_the_wheel(installed):
     assert listing.returncode == 0, listing.stderr
     rows = {row["scene"]: row for row in json.loads(listing.stdout)["baselines"]}
     here = subprocess.run(
-        [sys.executable, "-m", "pavonine.pipeline.cli", "baseline", "list", "--json", "-"],
+        [sys.executable, "-m", "pavonine.apps.cli", "baseline", "list", "--json", "-"],
         capture_output=True, text=True, cwd=REPO, check=False,
     )  # fmt: skip
     checkout_rows = {row["scene"]: row for row in json.loads(here.stdout)["baselines"]}

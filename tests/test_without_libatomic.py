@@ -78,7 +78,7 @@ def run_hidden(*args: str, cwd: Path, timeout: float = 600) -> subprocess.Comple
 @pytest.mark.convert
 def test_demo_converts_and_skips_the_render_naming_the_package(tmp_path):
     out = tmp_path / "demo"
-    cli = [sys.executable, "-m", "pavonine.pipeline.cli"]
+    cli = [sys.executable, "-m", "pavonine.apps.cli"]
     result = run_hidden(
         *cli, "demo", "-o", str(out), "--size", "64", "--spp", "1", "--resolution", "8x12",
         "--json", "-", cwd=tmp_path,

@@ -26,7 +26,7 @@ def test_convert_meshes_with_numpy_and_warns_once_naming_the_library(tmp_path):
     libs = hideable(*PYMESHLAB_LIBRARIES)
     write_maps(generate_maps("eye", 64, seed=4), tmp_path / "m")
     (tmp_path / "eye.toml").write_text(recipe_text("eye_feather"))
-    cli = [sys.executable, "-m", "pavonine.pipeline.cli"]
+    cli = [sys.executable, "-m", "pavonine.apps.cli"]
     probe = run_hiding(libs, sys.executable, "-c", "import pymeshlab", cwd=tmp_path)
     assert probe.returncode != 0 and "libGL.so.1" in probe.stderr  # really hidden
     result = run_hiding(libs, *cli, "convert", "eye.toml", "-o", "out", "--json", "-", cwd=tmp_path)

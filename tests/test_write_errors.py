@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from fault_harness import one_line_error, pavonine, small_tmpfs
 
-from pavonine.pipeline.errors import InputError, usd_reason, write_error
+from pavonine.base.errors import InputError, usd_reason, write_error
 
 REPO = Path(__file__).parents[1]
 QUAD = REPO / "tests" / "data" / "render" / "bare_quad.usda"
@@ -183,7 +183,7 @@ def test_os_errors_on_a_temporary_name_the_users_path(tmp_path, number):
 def test_a_usd_error_reaching_the_command_line_is_one_line_not_a_traceback(capsys):
     from pxr import Sdf, Tf
 
-    from pavonine.pipeline.errors import one_line_errors
+    from pavonine.base.errors import one_line_errors
 
     @one_line_errors
     def command() -> None:
@@ -249,7 +249,7 @@ def test_a_png_cut_short_by_a_full_disk_is_an_error_not_a_committed_file(tmp_pat
     writer returned normally (a command whose last write it was exited 0)."""
     import numpy as np
 
-    from pavonine.pipeline.maps.io import write_map
+    from pavonine.base.map_files import write_map
 
     noise = np.random.default_rng(3).random((1024, 512), dtype=np.float32)  # ~1 MB as PNG
     with small_tmpfs(tmp_path / "disk", size="64k") as disk:

@@ -1,0 +1,5 @@
+"""``python -m pavonine.apps.cli``: the same as the ``pavonine`` console script."""
+
+from pavonine.apps.cli import main
+
+main()

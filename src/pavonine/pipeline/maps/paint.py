@@ -1,0 +1,515 @@
+"""Procedural scale-C maps (paper §3.3) for the feather kinds Pavonine ships.
+
+The paper's own map images are not available (MODEL-NOTES, "Maps"), so Pavonine paints its
+own: an eye feather of the peacock's train with its ocellus, a blue body feather, a yellow
+covert and a fishtail (T-shaped) feather from the edge of the train. Each kind yields the six maps of §3.3 as float arrays in [0, 1], ``[row, column]`` with
+row 0 at the top (the feather's apex); see ``docs/pipeline.md`` for every encoding:
+
+=============  ==============================================================================
+alpha          opacity (silhouette), anti-aliased over about one pixel
+ocellar        class ``k`` in 0 (white) … 5 (black) stored as grey ``1 - k/5``; read back as
+               ``k = round(5 * (1 - grey))``
+gradation      0 = a class's black end … 1 = its white end (Table 1 "black/white"); painted
+               near ½, the literature preset's measured structure (:data:`MEASURED_GRADATION`)
+angle          barbule long axis relative to its barb, ``grey = (angle_deg mod 180) / 180``
+               (counter-clockwise seen from the front); barbules sit 30–40° off the barb
+displacement   barb-streak height, 0 = vane surface, 1 = full height
+melanin        share of structural colour: 1 = fully structural, 0 = melanin brown only
+=============  ==============================================================================
+
+Shapes are drawn in *feather units*: ``x`` across (0 on the rachis, ``±aspect/2`` at the image
+edges) and ``y`` along, 0 at the base (bottom row) and 1 at the apex (top row), so one unit is
+the feather's length and pixels are square.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+from pavonine.base.map_files import write_map
+
+MAP_NAMES = ("alpha", "ocellar", "gradation", "angle", "displacement", "melanin")
+CLASS_COUNT = 6
+
+
+def ocellar_grey(ocellar_class: np.ndarray | int, classes: int = CLASS_COUNT) -> np.ndarray:
+    """Grey level of ocellar class ``k`` of ``n`` classes: ``1 - k/(n-1)`` (0 = white, n-1 = black).
+
+    With the paper's six classes: ``1 - k/5``. A one-class material reads every grey as class 0
+    and is painted white.
+    """
+    if classes <= 1:
+        return np.ones_like(np.asarray(ocellar_class, dtype=np.float32))
+    return 1.0 - np.asarray(ocellar_class, dtype=np.float32) / (classes - 1)
+
+
+def ocellar_class(grey: np.ndarray, classes: int = CLASS_COUNT) -> np.ndarray:
+    """Class of an ocellar grey level: the nearest level, ``k = round((1 - g)(n - 1))``."""
+    k = np.rint((1.0 - np.asarray(grey, dtype=np.float64)) * max(classes - 1, 0))
+    return np.clip(k, 0, max(classes - 1, 0)).astype(np.int32)
+
+
+def angle_grey(angle_deg: np.ndarray) -> np.ndarray:
+    """Angle-map grey of a barbule axis at ``angle_deg`` counter-clockwise from its barb
+    (seen from the front): ``(angle mod 180°) / 180°`` (an axis: 180° is the same line as 0°)."""
+    return (np.mod(np.asarray(angle_deg, dtype=np.float64), 180.0) / 180.0).astype(np.float32)
+
+
+def angle_degrees(grey: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`angle_grey`: the barbule axis angle in degrees in [0, 180]."""
+    return np.asarray(grey, dtype=np.float32) * 180.0
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+@dataclass
+class _Canvas:
+    """Pixel-centre coordinates of a map in feather units, and a seeded noise source."""
+
+    height: int
+    width: int
+    rng: np.random.Generator
+
+    def __post_init__(self) -> None:
+        self.aspect = self.width / self.height
+        cols = (np.arange(self.width, dtype=np.float32) + 0.5) / self.width
+        rows = (np.arange(self.height, dtype=np.float32) + 0.5) / self.height
+        self.x = (cols[None, :] - 0.5) * self.aspect + np.zeros((self.height, 1), np.float32)
+        self.y = (1.0 - rows[:, None]) + np.zeros((1, self.width), np.float32)
+        self.pixel = 1.0 / self.height  # one pixel in feather units
+
+    def noise(self, scale: float) -> np.ndarray:
+        """Smooth zero-mean noise (≈ unit variance) with feature size ``scale`` feather units.
+
+        Drawn on a grid fixed in feather units, so the pattern does not depend on the map size.
+        """
+        ny = math.ceil(1.0 / scale) + 4
+        nx = math.ceil(self.aspect / scale) + 4
+        grid = self.rng.standard_normal((ny, nx)).astype(np.float32)
+        rows = self.y / scale + 2.0
+        cols = (self.x + self.aspect / 2) / scale + 2.0
+        return ndimage.map_coordinates(grid, [rows, cols], order=3, mode="nearest").astype(
+            np.float32
+        )
+
+    def coverage(self, signed: np.ndarray) -> np.ndarray:
+        """Anti-aliased inside-ness of a signed distance (feather units, > 0 inside)."""
+        return np.clip(signed / self.pixel + 0.5, 0.0, 1.0)
+
+
+def _ridges(phase: np.ndarray, sharpness: float = 3.0) -> np.ndarray:
+    """Streak profile: 1 on a barb's crest (integer ``phase``), falling to 0 between barbs."""
+    return (0.5 + 0.5 * np.cos(2.0 * np.pi * phase)) ** sharpness
+
+
+#: Mean of the streak profile over one period, ∫ ((1 + cos)/2)³ = 5/16.
+_RIDGE_MEAN = 5.0 / 16.0
+
+
+def _resolvable(period_px: np.ndarray) -> np.ndarray:
+    """Weight of streaks whose period falls below ~3 pixels (anti-aliasing): 0 → their mean."""
+    return np.clip((period_px - 2.5) / 2.0, 0.0, 1.0)
+
+
+def _filtered(ridge: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Streaks where they are resolvable, their mean value where they are not."""
+    return weight * ridge + (1.0 - weight) * _RIDGE_MEAN
+
+
+def _straight_barbs(
+    cv: _Canvas, angle_deg: np.ndarray | float, spacing: float, wobble: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Streaks of straight barbs leaving the rachis (x = 0) at ``angle_deg`` from it, apex-ward.
+
+    A point (x, y) lies on the barb that left the rachis at ``y0 = y - |x| cot(angle)``; barbs
+    are ``spacing`` feather units apart along the rachis. Returns (ridge height, fade).
+    """
+    alpha = np.radians(angle_deg)
+    y0 = cv.y - np.abs(cv.x) / np.tan(alpha)
+    ridge = _ridges(y0 / spacing + wobble)
+    period_px = spacing * np.sin(alpha) / cv.pixel
+    return ridge, _resolvable(np.asarray(period_px) + np.zeros_like(cv.x))
+
+
+def _radial_barbs(
+    cv: _Canvas, centre: tuple[float, float], count: int, wobble: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Streaks of ``count`` barbs radiating from ``centre`` (the eye: paper §3.3.4)."""
+    dx = cv.x - centre[0]
+    dy = cv.y - centre[1]
+    theta = np.arctan2(dx, dy)
+    radius = np.hypot(dx, dy)
+    ridge = _ridges(theta * count / (2 * np.pi) + wobble)
+    period_px = 2 * np.pi * radius / count / cv.pixel
+    return ridge, _resolvable(period_px)
+
+
+def _edge_distance(alpha: np.ndarray, pixel: float) -> np.ndarray:
+    """Distance (feather units) from each inside pixel to the silhouette edge."""
+    return ndimage.distance_transform_edt(alpha > 0.5).astype(np.float32) * pixel
+
+
+def _fringe(cv: _Canvas, ridge: np.ndarray, inside: np.ndarray, depth: float) -> np.ndarray:
+    """Opacity gaps between barb tips within ``depth`` of the edge (the feathery margin)."""
+    edge = _edge_distance(inside, cv.pixel)
+    weight = 1.0 - _smoothstep(0.0, depth, edge)
+    return inside * (1.0 - weight * (1.0 - np.clip(ridge * 1.6, 0.0, 1.0)))
+
+
+def _melanin_fade(
+    cv: _Canvas, alpha: np.ndarray, width: float, floor: float, noise: np.ndarray
+) -> np.ndarray:
+    """Structural share fading to ``floor`` within ``width`` of the edge (paper §3.3.6)."""
+    edge = _edge_distance(alpha, cv.pixel)
+    share = floor + (1.0 - floor) * _smoothstep(0.0, width, edge * (1.0 + 0.25 * noise))
+    return np.where(alpha > 0.0, share, floor).astype(np.float32)
+
+
+#: Gradation-map value of a class's measured structure: the literature preset puts each
+#: region's measurement at t = ½ and its size variation at the ends (docs/model.md, "Gradation in
+#: freyer2020"), so the painted maps stay near ½ and drift from base to apex (paper §3.3.3).
+MEASURED_GRADATION = 0.5
+
+
+def _gradation(
+    cv: _Canvas, slope: float, centre_y: float, noise: float, scale: float
+) -> np.ndarray:
+    """Gradation ``½ + slope·(y − centre_y)`` plus noise of amplitude ``noise`` and feature size
+    ``scale``: the measured structure at ``centre_y``, a subtle drift from the feather's base to
+    its apex (paper §3.3.3), clipped to [0, 1]."""
+    drift = MEASURED_GRADATION + slope * (cv.y - centre_y)
+    return np.clip(drift + noise * cv.noise(scale), 0.0, 1.0)
+
+
+def _barbule_angle(
+    cv: _Canvas,
+    base_deg: float,
+    spread_deg: float,
+    noise: np.ndarray,
+    rachis_tip: float,
+    unmirrored: np.ndarray | float = 0.0,
+):
+    """Barbules 30–40° off their barb (paper §3.3.4), mirrored across the rachis.
+
+    The mirror turns the angle ``θ`` into ``180° − θ``; the turn is continuous (a smooth ramp
+    through 90° within a rachis width of the centre line, hidden under the shaft; never through
+    0°/180°, where the grey level would wrap and bilinear filtering would draw a line), and above
+    the rachis tip, where no shaft covers the centre line, it widens so no line is drawn through
+    the vane. ``unmirrored`` (0…1) keeps one side's angle where barbs radiate from a centre (the
+    eye), so the angle turns with them and shows no seam at all.
+    """
+    across = np.clip(np.abs(cv.x) / (cv.aspect / 2), 0.0, 1.0)
+    magnitude = base_deg + spread_deg * across + 1.5 * noise
+    width = 0.006 + 0.25 * _smoothstep(rachis_tip - 0.02, rachis_tip + 0.1, cv.y)
+    side = 2.0 * _smoothstep(-width, width, cv.x) - 1.0
+    side = side + (1.0 - side) * unmirrored
+    return angle_grey(90.0 - (90.0 - magnitude) * side)
+
+
+# --------------------------------------------------------------------------- kinds
+
+
+def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
+    """Train eye feather: ocellus near the apex, loose barbs below (paper §2.1, §3.3)."""
+    x, y = cv.x, cv.y
+    cy = 0.74  # eye centre = apex of the rachis
+    edge_noise = cv.noise(0.04)
+    # Silhouette: the eye's disc (soft union) with the narrowing loose-barbed lower vane.
+    disc = (1.0 - np.hypot(x / 0.215, (y - 0.735) / 0.245)) * 0.215
+    lower_half_width = 0.035 + 0.12 * np.clip(y / 0.62, 0.0, 1.0) ** 0.9
+    lower = np.minimum(np.minimum(lower_half_width - np.abs(x), y - 0.004), 0.72 - y)
+    k = 0.012
+    signed = k * np.logaddexp(disc / k, lower / k) + 0.006 * edge_noise
+    signed = np.minimum(signed, np.minimum(y - 0.004, 0.996 - y))
+    solid = cv.coverage(signed)
+
+    # Barbs: straight from the rachis below the eye, radial around it (paper §3.3.4).
+    wobble = 0.35 * cv.noise(0.05)
+    barb_angle = 38.0 + 30.0 * _smoothstep(0.2, 0.7, y)
+    straight, straight_fade = _straight_barbs(cv, barb_angle, 0.0075, wobble)
+    radial, radial_fade = _radial_barbs(cv, (0.0, cy), 240, wobble)
+    to_eye = np.hypot(x, y - cy)
+    radial_weight = np.maximum(_smoothstep(cy - 0.32, cy - 0.12, y), _smoothstep(0.2, 0.1, to_eye))
+    ridge = radial_weight * _filtered(radial, radial_fade) + (1 - radial_weight) * _filtered(
+        straight, straight_fade
+    )
+    loose = 1.0 - _smoothstep(0.3, 0.5, y)  # loose, separate barbs low on the feather
+    alpha = _fringe(cv, ridge, solid, 0.02 + 0.03 * loose)
+    alpha = alpha * (1.0 - 0.4 * loose * (1.0 - np.clip(ridge * 1.8, 0, 1)))
+
+    # Ocellus: classes 5 (heart) … 2 as nested, slightly rising rings; 1 vane; 0 lower vane.
+    ring_noise = cv.noise(0.03)
+    theta = np.arctan2(x, y - cy)
+    notch = 1.0 - 0.28 * np.exp(-(((np.abs(theta) - np.pi) / 0.45) ** 2))  # heart's notch
+    klass = np.where(y > 0.40 + 0.03 * edge_noise, 1, 0)
+    for cls, (dy, ax, ay) in zip(
+        (2, 3, 4, 5),
+        ((0.012, 0.142, 0.176), (0.010, 0.125, 0.153), (0.005, 0.088, 0.106), (0.0, 0.053, 0.063)),
+        strict=True,
+    ):
+        shape = notch if cls == 5 else 1.0
+        rho = np.hypot(x / ax, (y - cy - dy) / ay) / shape
+        klass = np.where(rho + 0.025 * ring_noise < 1.0, cls, klass)
+    klass = np.where(solid > 0, klass, 0)
+
+    # Measured structure at the eye's centre; ±0.1 across the rings, lower at the base.
+    gradation = _gradation(cv, 0.55, cy, 0.04, 0.08)
+    angle = _barbule_angle(cv, 32.0, 6.0, cv.noise(0.06), cy, radial_weight)
+    grain = cv.noise(0.01)
+    displacement = solid * np.clip(0.78 * ridge + 0.12 + 0.05 * grain + 0.05 * edge_noise, 0, 1)
+    melanin = _melanin_fade(cv, solid, 0.05, 0.15, cv.noise(0.05))
+    melanin = melanin * (1.0 - 0.35 * loose)
+    # The heart's barbules carry melanin rods on only part of their front (TEM in "Ultraviolet
+    # reflectance structures of peacock feathers"), so it shows less structural colour: a dark
+    # blue-violet rather than the bright violet of its layer structure alone.
+    heart = ndimage.gaussian_filter((klass == 5).astype(np.float32), 1.5 * cv.height / 1024)
+    melanin = melanin * (1.0 - 0.35 * heart)
+    # The vane around the eye is brass-green, duller than the rings: less structural colour.
+    vane = ndimage.gaussian_filter((klass <= 1).astype(np.float32), 3.0 * cv.height / 1024)
+    melanin = melanin * (1.0 - 0.3 * vane)
+    return {
+        "alpha": alpha,
+        "ocellar": ocellar_grey(klass),
+        "gradation": gradation,
+        "angle": angle,
+        "displacement": displacement,
+        "melanin": melanin,
+    }
+
+
+def _contour_feather(
+    cv: _Canvas,
+    half_width: Callable[[np.ndarray], np.ndarray],
+    barb_angle_deg: float,
+    spacing: float,
+    downy_until: float,
+    melanin_floor: float,
+) -> dict[str, np.ndarray]:
+    """A body/covert feather: a vane of straight barbs, downy melanin base (one ocellar class)."""
+    x, y = cv.x, cv.y
+    edge_noise = cv.noise(0.05)
+    signed = half_width(y) - np.abs(x) + 0.004 * edge_noise
+    signed = np.minimum(signed, np.minimum(y - 0.004, 0.996 - y))
+    solid = cv.coverage(signed)
+    wobble = 0.3 * cv.noise(0.06)
+    ridge, fade = _straight_barbs(cv, barb_angle_deg + 8.0 * y, spacing, wobble)
+    ridge = _filtered(ridge, fade)
+    downy = 1.0 - _smoothstep(downy_until - 0.08, downy_until + 0.08, y + 0.03 * edge_noise)
+    alpha = _fringe(cv, ridge, solid, 0.025 + 0.08 * downy)
+    gradation = _gradation(cv, 0.5, 0.55, 0.04, 0.1)
+    angle = _barbule_angle(cv, 34.0, 5.0, cv.noise(0.06), 0.9)
+    grain = cv.noise(0.012)
+    displacement = solid * np.clip(0.75 * ridge + 0.15 + 0.06 * grain, 0.0, 1.0)
+    melanin = _melanin_fade(cv, solid, 0.06, melanin_floor, cv.noise(0.05))
+    melanin = melanin * (1.0 - 0.9 * downy)
+    return {
+        "alpha": alpha,
+        "ocellar": ocellar_grey(np.zeros_like(y, dtype=np.int32)),
+        "gradation": gradation,
+        "angle": angle,
+        "displacement": displacement,
+        "melanin": melanin,
+    }
+
+
+def _blue(cv: _Canvas) -> dict[str, np.ndarray]:
+    """Blue body (neck/breast) feather: short, broad, rounded tip, downy dark base."""
+
+    def half_width(y: np.ndarray) -> np.ndarray:
+        # Rounded tip: an ellipse over the upper part, tapering to the quill at the base.
+        t = np.clip(y, 0.0, 1.0)
+        return (
+            0.33
+            * np.sqrt(np.clip(1.0 - ((t - 0.55) / 0.45) ** 2, 0.0, 1.0))
+            * (0.35 + 0.65 * _smoothstep(0.0, 0.45, t))
+        )
+
+    return _contour_feather(cv, half_width, 48.0, 0.011, 0.32, 0.2)
+
+
+def _yellow(cv: _Canvas) -> dict[str, np.ndarray]:
+    """Yellow (bronze) covert: long and lanceolate, barbs at a steep angle to the rachis."""
+
+    def half_width(y: np.ndarray) -> np.ndarray:
+        t = np.clip(y, 0.0, 1.0)
+        return 0.16 * np.sin(np.pi * np.clip(t, 0.0, 1.0) ** 0.75) ** 0.8 + 0.008
+
+    return _contour_feather(cv, half_width, 32.0, 0.009, 0.18, 0.25)
+
+
+def _fishtail(cv: _Canvas) -> dict[str, np.ndarray]:
+    """Fishtail (T-shaped) train feather from the fan's edge: a narrow vane along a long rachis
+    that opens at the tip into two lobes with a notch between them, and no ocellus.
+
+    Classes from the eye feather's material (Table 1): 1 (green-gold) on the vane, 2 (gold) and
+    3 (bronze) along the lobes' outer rims, as on the metallic green-bronze fishtails of the
+    train's sides (paper §2.1 names the train's colours; the lobes carry no eye).
+    """
+    x, y = cv.x, cv.y
+    lobe_half = 0.47 * cv.aspect  # lobe tips almost reach the image edges
+    edge_noise = cv.noise(0.04)
+    opening = _smoothstep(0.52, 0.80, y)  # the vane opens into the T
+    half_width = 0.03 + 0.03 * np.clip(y / 0.5, 0.0, 1.0) + (lobe_half - 0.06) * opening**1.4
+    across = np.clip(np.abs(x) / lobe_half, 0.0, 1.0)
+    top = 0.80 + 0.17 * across**0.8  # the notch: low in the middle, the lobes reach the top
+    signed = np.minimum(half_width - np.abs(x), top - y) + 0.004 * edge_noise
+    signed = np.minimum(signed, np.minimum(y - 0.004, 0.996 - y))
+    solid = cv.coverage(signed)
+
+    wobble = 0.3 * cv.noise(0.06)
+    barb_angle = 36.0 + 44.0 * _smoothstep(0.45, 0.85, y)  # lobe barbs run almost across
+    ridge, fade = _straight_barbs(cv, barb_angle, 0.008, wobble)
+    ridge = _filtered(ridge, fade)
+    loose = 1.0 - _smoothstep(0.25, 0.45, y)  # loose barbs low on the shaft
+    alpha = _fringe(cv, ridge, solid, 0.02 + 0.04 * loose)
+
+    rim = np.clip(top - y, 0.0, None) + 0.006 * cv.noise(0.03)
+    klass = np.where(y > 0.30, 1, 0)
+    klass = np.where((opening > 0.3) & (rim < 0.06), 2, klass)
+    klass = np.where((opening > 0.3) & (rim < 0.025) & (across > 0.35), 3, klass)
+    klass = np.where(solid > 0, klass, 0)
+
+    gradation = _gradation(cv, 0.5, 0.6, 0.04, 0.08)
+    angle = _barbule_angle(cv, 33.0, 6.0, cv.noise(0.06), 0.8)  # rachis_length of its recipe
+    grain = cv.noise(0.012)
+    displacement = solid * np.clip(0.76 * ridge + 0.14 + 0.05 * grain, 0.0, 1.0)
+    melanin = _melanin_fade(cv, solid, 0.04, 0.2, cv.noise(0.05)) * (1.0 - 0.5 * loose)
+    maps = (alpha, ocellar_grey(klass), gradation, angle, displacement, melanin)
+    return dict(zip(MAP_NAMES, maps, strict=True))
+
+
+@dataclass(frozen=True)
+class FeatherKind:
+    """A shipped feather kind: width/height of its maps and the painter."""
+
+    name: str
+    aspect: float
+    paint: Callable[[_Canvas], dict[str, np.ndarray]]
+    description: str
+
+
+KINDS: dict[str, FeatherKind] = {
+    "eye": FeatherKind("eye", 0.5, _eye, "train eye feather with its ocellus (6 classes)"),
+    "blue": FeatherKind("blue", 0.72, _blue, "blue body feather (one class)"),
+    "yellow": FeatherKind("yellow", 0.36, _yellow, "yellow covert feather (one class)"),
+    "fishtail": FeatherKind(
+        "fishtail", 0.42, _fishtail, "fishtail (T-shaped) train-edge feather, no ocellus"
+    ),
+}
+
+
+def generate_maps(kind: str, size: int = 1024, seed: int = 0) -> dict[str, np.ndarray]:
+    """The six maps of ``kind`` at ``size`` pixels along the feather (height), as float32 [0, 1].
+
+    The width is ``round(size * aspect)``. Deterministic for a given ``(kind, size, seed)``.
+    """
+    if kind not in KINDS:
+        raise KeyError(f"unknown feather kind {kind!r}; known: {sorted(KINDS)}")
+    if size < 16:
+        raise ValueError(f"map size must be at least 16 pixels, got {size}")
+    spec = KINDS[kind]
+    width = max(8, round(size * spec.aspect))
+    canvas = _Canvas(size, width, np.random.default_rng(seed))
+    maps = spec.paint(canvas)
+    return {name: np.clip(maps[name], 0.0, 1.0).astype(np.float32) for name in MAP_NAMES}
+
+
+def write_maps(
+    maps: dict[str, np.ndarray],
+    outdir: str | os.PathLike,
+    extension: str = ".png",
+    group_id: str | None = None,
+) -> dict[str, Path]:
+    """Write each map as ``OUTDIR/<name><extension>``; returns the paths by map name.
+
+    The six are marked as one group (``pavonine:group``, :mod:`pavonine.base.groups`) so
+    that readers refuse a set mixed from two writes. Its id is ``group_id``, by default a hash
+    of the maps' contents: the same maps give the same bytes (``--seed`` reproduces a set)."""
+    from pavonine.base.groups import GROUP_ATTRIBUTE, content_group_id, group_marks
+
+    outdir = Path(outdir)
+    paths = {name: outdir / f"{name}{extension}" for name in MAP_NAMES}
+    if group_id is None:
+        parts: list = [extension.encode()]
+        for name in MAP_NAMES:
+            parts += [f"{name}{np.shape(maps[name])}".encode(), maps[name]]
+        group_id = content_group_id(parts)
+    marks = group_marks(group_id, paths.values())
+    for name, path in paths.items():
+        description = f"pavonine {name} map (paper section 3.3)"
+        write_map(
+            path, maps[name], description=description, attributes={GROUP_ATTRIBUTE: marks[path]}
+        )
+    return paths
+
+
+#: Approximate appearance of each ocellar class (display only, for contact sheets).
+CLASS_DISPLAY_COLOURS = (
+    (0.55, 0.60, 0.35),  # 0 white end: pale green-gold lower vane
+    (0.45, 0.55, 0.15),  # 1 green-gold vane
+    (0.70, 0.60, 0.20),  # 2 gold ring
+    (0.60, 0.35, 0.15),  # 3 bronze ring
+    (0.05, 0.55, 0.55),  # 4 blue-green ring
+    (0.10, 0.05, 0.40),  # 5 dark blue-violet heart
+)
+
+
+def write_contact_sheet(maps: dict[str, np.ndarray], path: str | os.PathLike, title: str) -> None:
+    """A labelled PNG of the six maps side by side (the ocellar map in display colours)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    height, width = maps["alpha"].shape
+    panel = 2.0
+    fig, axes = plt.subplots(
+        1,
+        len(MAP_NAMES),
+        figsize=(panel * len(MAP_NAMES), panel * height / width + 0.7),
+        dpi=120,
+    )
+    checker = (
+        (np.add.outer(np.arange(height) // 16, np.arange(width) // 16) % 2) * 0.15 + 0.7
+    ).astype(np.float32)
+    for ax, name in zip(axes, MAP_NAMES, strict=True):
+        values = maps[name]
+        if name == "ocellar":
+            ax.imshow(
+                ocellar_class(values),
+                cmap=ListedColormap(CLASS_DISPLAY_COLOURS),
+                vmin=-0.5,
+                vmax=5.5,
+                interpolation="nearest",
+            )
+        elif name == "angle":
+            ax.imshow(angle_degrees(values), cmap="twilight", vmin=0, vmax=180)
+        elif name == "alpha":
+            ax.imshow(checker * (1 - values) + values * 0.05, cmap="gray", vmin=0, vmax=1)
+        else:
+            ax.imshow(values, cmap="gray", vmin=0, vmax=1)
+        ax.set_title(name, fontsize=10)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    os.replace(tmp, path)

@@ -1,0 +1,494 @@
+"""``render_stage`` / ``render_products``: a USD stage to scene-linear spectral images.
+
+The stage is translated once by :class:`~pavonine.render.delegate.StageDelegate`; every
+``RenderProduct`` of its render settings (:mod:`.settings`) gets its own Mitsuba sensor (camera,
+resolution, pixel aspect) in one scene, and is rendered with the ``pavonine_path`` integrator
+(:mod:`.integrator`; Mitsuba's ``volpath`` in scalar variants) — inside
+an ``aov`` integrator when its ``RenderVar``\\ s ask for AOVs (:mod:`.aovs`) — in the chosen
+spectral variant (``llvm_ad_spectral`` by default), with a box pixel filter so that each pixel is
+the plain mean of its samples, progressively in passes (:mod:`.passes`).
+
+:func:`render_stage` renders one product (the first, or the one named) and returns its
+:class:`RenderResult`; :func:`render_products` renders them all.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import re
+import time as _time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pavonine.base.backend import select_variant
+from pavonine.base.errors import InputError
+from pavonine.render import aovs as aov_layers
+from pavonine.render import camera as camera_translator
+from pavonine.render import displacement, instance_primvars, lights, sensors
+from pavonine.render.delegate import StageDelegate, open_stage, render_time
+from pavonine.render.diagnostics import Diagnostics, first_line
+from pavonine.render.imageio import write_exr, write_png
+from pavonine.render.integrator_settings import DEFAULT_SPP, MAX_DEPTH_LIMIT, check_variant
+from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
+from pavonine.render.passes import render_passes
+from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
+
+__all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
+#: the view of a stage without a camera (see :func:`render_products`)
+FRAMINGS = ("usd", "portrait")
+
+
+@dataclass
+class RenderResult:
+    """A finished render of one product."""
+
+    rgb: np.ndarray  # H×W×3 float32, scene-linear Rec.709 (sRGB primaries, D65): the beauty
+    variance: np.ndarray | None  # H×W×3 variance of each pixel's estimate (``moments=True``)
+    metadata: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+    layers: list[aov_layers.Layer] = field(default_factory=list)  # the product's EXR, in order
+    images: dict[str, np.ndarray] = field(default_factory=dict)  # layer name → H×W×C pixels
+    product: ProductSpec = field(default_factory=ProductSpec)
+
+    @property
+    def has_beauty(self) -> bool:
+        """True when the product's file holds the beauty image (so a display PNG makes sense)."""
+        return any(layer.source == "beauty" for layer in self.layers)
+
+    def exr_layers(self) -> list[tuple[tuple[str, ...], np.ndarray]]:
+        """(channel names, H×W×C pixels) of every layer, in the product's order."""
+        return [(layer.channels, self.images[layer.name]) for layer in self.layers]
+
+
+@dataclass
+class _Job:
+    product: ProductSpec
+    plan: aov_layers.AovPlan
+    size: tuple[int, int]
+    film_width: int
+    camera: str | None
+    sensor: camera_translator.Sensor
+
+
+def render_stage(
+    stage_path: str | os.PathLike, *, product: str | None = None, **options: Any
+) -> RenderResult:
+    """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
+
+    ``options`` are :func:`render_products`' (``spp``, ``max_depth``, ``resolution``, ``seed``,
+    ``camera``, ``framing``, ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
+    """
+    chosen = [product] if product else None
+    return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
+
+
+def render_products(
+    stage_path: str | os.PathLike,
+    *,
+    spp: int | None = None,
+    max_depth: int | None = None,
+    resolution: tuple[int, int] | None = None,
+    seed: int = 0,
+    camera: str | None = None,
+    framing: str = "usd",
+    time: float | None = None,
+    variant: str | None = None,
+    moments: bool = False,
+    progress: bool = True,
+    products: list[str] | None = None,
+    first_only: bool = False,
+    limits: RenderLimits = DEFAULT_LIMITS,
+) -> list[RenderResult]:
+    """Render every product of the stage's render settings (or the ones at ``products``).
+
+    ``resolution`` and ``camera`` override every product's; a stage without settings renders one
+    beauty image. A stage without a camera is seen through USD's default view (``framing="usd"``:
+    usdrecord's camera, :func:`.camera.usd_view_camera`) or Pavonine's ``"portrait"`` framing of a
+    flat asset (:func:`.camera.portrait_camera`); see :func:`.camera.default_view`. ``spp``
+    defaults to the settings' ``mitsuba:sample_count``, else :data:`DEFAULT_SPP`; ``max_depth`` (-1: no limit) overrides the settings' integrator
+    (:mod:`.integrator_settings`). Warnings are shared by all results. ``limits``
+    (:mod:`.limits`) are checked before the stage is translated: image sizes and ``spp`` first,
+    instance counts as instancers are met. An image with NaN or infinite pixels is an
+    :class:`InputError`, never a result.
+    """
+    if spp is not None:
+        _check_spp(spp, moments, limits)
+    if max_depth is not None and not -1 <= max_depth <= MAX_DEPTH_LIMIT:
+        raise InputError(
+            "max_depth", f"must be -1 (no limit) or 0 to {MAX_DEPTH_LIMIT:,}, got {max_depth}"
+        )
+    if framing not in FRAMINGS:
+        raise InputError("framing", f"must be one of {', '.join(FRAMINGS)}, got {framing!r}")
+    if resolution is not None:
+        if len(resolution) != 2:
+            raise InputError("resolution", f"must be two positive integers, got {resolution}")
+        limits.check_resolution(resolution, "resolution")
+    backend = _select(variant)
+    import drjit as dr
+    import mitsuba as mi
+
+    started = _time.perf_counter()
+    diag = Diagnostics()
+    stage = open_stage(stage_path, diag)
+    time_code = render_time(stage, time)
+    settings = read_render_settings(stage, diag)
+    if settings.path is not None:
+        check_variant(stage.GetPrimAtPath(settings.path), backend.variant, diag)
+    if spp is None:
+        spp = settings.sample_count or DEFAULT_SPP
+        _check_spp(spp, moments, limits, settings.sample_count_field or "spp")
+    chosen = choose_products(settings.products, products, first_only)
+    for product in chosen:
+        check_product_size(product, resolution, settings.path, limits)
+    delegate = StageDelegate(stage, time_code, diag, limits=limits, progress=progress)
+    synced = delegate.sync()
+    if synced.bounds is None:
+        diag.warn(str(stage_path), "the stage has no renderable geometry")
+    jobs = [
+        _job(p, delegate, synced, (camera, framing), resolution, settings.path, time_code, diag)
+        for p in chosen
+    ]
+    emitters = dict(synced.emitters)
+    if not emitters and not synced.mesh_lights and not synced.dark_lights:
+        up = np.eye(3)[2 if synced.up_axis == "Z" else 1]
+        center, radius = delegate.bounding_sphere()
+        emitters = lights.default_lights(jobs[0].sensor.to_world, up, center, radius)
+
+    scene_dict: dict[str, Any] = {"type": "scene"}
+    shapes = dict(synced.shapes)
+    for index, job in enumerate(jobs):
+        if job.sensor.sensor["type"] != "irradiancemeter":
+            scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+            continue
+        meter = sensors.attach_meter(shapes, stage, job.camera, _sensor_dict(job), diag)
+        if meter is None:  # warned: through the camera's lens instead
+            prim = synced.cameras[job.camera]
+            job.sensor = camera_translator.translate_camera(
+                prim,
+                delegate.xforms.world(prim),
+                time_code,
+                job.size,
+                job.product.pixel_aspect,
+                job.product.conform,
+                Diagnostics(),  # its settings were read (and warned about) once already
+                lens_only=True,
+            )
+            scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+        else:
+            meter.set_id(f"sensor_{index}")
+    scene_dict.update(scene_objects(shapes, emitters))
+    views = [
+        displacement.view_of(j.sensor.sensor, j.sensor.to_world, (j.film_width, j.size[1]))
+        for j in jobs
+        if j.sensor.sensor["type"] != "irradiancemeter"
+    ]
+    displacement.resolve(scene_dict, views, synced.bounds, diag)
+    gc.collect()  # see passes.render_pass
+    try:
+        # Built in order, not on Mitsuba's thread pool: registry ids (which Dr.Jit writes into the
+        # kernel, e.g. the environment emitter's) then follow the dict, so the same stage traces
+        # the same kernel and finds it in Dr.Jit's disk cache. In parallel the train's sky got id 1
+        # or 2 from run to run (2 of 5 runs), each form an LLVM compile of its own.
+        scene = mi.load_dict(scene_dict, parallel=False)
+    except Exception as exc:
+        raise InputError(
+            os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"
+        ) from None
+    instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
+
+    if max_depth is not None and settings.integrator.type == "direct":
+        diag.warn(str(settings.path), "max_depth has no effect: the stage asks for direct light")
+    integrator_spec = settings.integrator.with_max_depth(max_depth).for_variant(backend.variant)
+    path_tracer = integrator_spec.mitsuba_dict()
+    results = []
+    with _progress(stage_path, jobs, spp, progress) as advance:
+        for index, job in enumerate(jobs):
+            integrator = mi.load_dict(job.plan.integrator(path_tracer))
+            image, variance, passes = render_passes(
+                scene,
+                [s.id() for s in scene.sensors()].index(f"sensor_{index}"),
+                integrator,
+                spp,
+                seed,
+                (job.film_width, job.size[1]),
+                job.size[0],
+                moments,
+                advance,
+                trace_loops_once=bool(delegate.table.instances),
+            )
+            images = job.plan.split(image)
+            _finish_aovs(job, images)
+            width, height = job.size
+            metadata = {
+                "stage": os.fspath(stage_path),
+                "variant": backend.variant,
+                "spp": int(spp),
+                "integrator": integrator_spec.describe(),
+                "seed": int(seed),
+                "resolution": [int(width), int(height)],
+                "camera": job.camera or "(framing camera)",
+                "sensor": job.sensor.sensor["type"],  # irradiancemeter: a meter's estimates
+                "time": _time_label(time_code),
+                "passes": int(passes),
+                "colorspace": "lin_rec709_scene",
+                "versions": _versions(),
+            }
+            if job.product.path:
+                metadata["product"] = job.product.path
+                metadata["productName"] = job.product.product_name
+                metadata["layers"] = {ly.name or "beauty": ly.var or "" for ly in job.plan.layers}
+            results.append(
+                RenderResult(
+                    rgb=np.ascontiguousarray(image[..., :3]),
+                    variance=variance,
+                    metadata=metadata,
+                    layers=job.plan.layers,
+                    images=images,
+                    product=job.product,
+                )
+            )
+    dr.sync_thread()
+    for result in results:
+        check_finite_image(result, stage_path)
+    seconds = round(_time.perf_counter() - started, 3)
+    for result in results:
+        result.metadata["seconds"] = seconds
+        result.warnings = list(diag.messages)
+    return results
+
+
+def _check_spp(spp: int, moments: bool, limits: RenderLimits, where: str = "spp") -> None:
+    limits.check_spp(spp, where)
+    if moments and spp < 2:
+        raise InputError(where, "moments need at least 2 samples per pixel")
+
+
+def choose_products(
+    products: list[ProductSpec], wanted: list[str] | None, first_only: bool
+) -> list[ProductSpec]:
+    """The products named by ``wanted`` (prim paths, or prim names that name one product), in
+    that order; an :class:`InputError` naming one that is not there. Else all, or the first."""
+    if not wanted:
+        return products[:1] if first_only else products
+    by_path = {p.path: p for p in products if p.path}
+    by_name: dict[str, list[ProductSpec]] = {}
+    for p in by_path.values():
+        by_name.setdefault(p.path.rsplit("/", 1)[-1], []).append(p)
+    chosen = []
+    for name in wanted:
+        found = by_path.get(name)
+        if found is None and len(by_name.get(name, [])) == 1:
+            found = by_name[name][0]
+        if found is None:
+            known = ", ".join(by_path) or "none"
+            raise InputError("--product", f"no RenderProduct at {name} (products: {known})")
+        if found not in chosen:
+            chosen.append(found)
+    return chosen
+
+
+def check_product_size(
+    product: ProductSpec,
+    resolution: tuple[int, int] | None,
+    settings_path: str | None,
+    limits: RenderLimits,
+) -> None:
+    """Refuse a product whose image (or square-pixel film) is beyond ``limits.pixels``."""
+    where = "resolution" if resolution else f"{product.path or settings_path}.resolution"
+    width, height = resolution or product.resolution or DEFAULT_RESOLUTION
+    limits.check_resolution((width, height), where)
+    film_width = max(1, round(width * product.pixel_aspect))
+    if film_width != width:
+        limits.check_resolution(
+            (film_width, height), f"{product.path or settings_path}.pixelAspectRatio"
+        )
+
+
+def check_finite_image(result: RenderResult, stage_path: str | os.PathLike) -> None:
+    """An :class:`InputError` if any pixel of any layer is NaN or infinite.
+
+    Non-finite input is caught where it is read (warnings naming prim and attribute); this is the
+    last guard, so that a NaN image is never written and reported as a success.
+    """
+    images = {"beauty": result.rgb, **result.images}
+    for name, pixels in images.items():
+        bad = int(np.count_nonzero(~np.isfinite(pixels)))
+        if bad:
+            raise InputError(
+                os.fspath(stage_path),
+                f"the render's {name} has {bad} NaN or infinite values (non-finite input the "
+                "renderer did not catch); nothing written",
+            )
+
+
+def _job(
+    product: ProductSpec,
+    delegate: StageDelegate,
+    synced,
+    view: tuple[str | None, str],
+    resolution: tuple[int, int] | None,
+    settings_path: str | None,
+    time_code,
+    diag: Diagnostics,
+) -> _Job:
+    """The sensor and layers of one product (``view``: the camera asked for, and the framing of a
+    stage without one)."""
+    camera, framing = view
+    width, height = resolution or product.resolution or DEFAULT_RESOLUTION
+    film_width = max(1, round(width * product.pixel_aspect))  # Mitsuba's pixels are square
+    camera_path = camera or product.camera
+    if camera_path is not None and camera_path not in synced.cameras:
+        known = ", ".join(sorted(synced.cameras)) or "none"
+        where = "--camera" if camera else f"{product.path or settings_path}.camera"
+        raise InputError(
+            where, f"no visible camera at {camera_path} (cameras in the stage: {known})"
+        )
+    if camera_path is None and synced.cameras:
+        camera_path = sorted(synced.cameras)[0]
+    if camera_path is not None:
+        prim = synced.cameras[camera_path]
+        try:
+            sensor = camera_translator.translate_camera(
+                prim,
+                delegate.xforms.world(prim),
+                time_code,
+                (width, height),
+                product.pixel_aspect,
+                product.conform,
+                diag,
+            )
+        except ValueError as exc:
+            stack = prim.GetPrimStack()
+            layer = stack[0].layer if stack else None
+            where = f"{layer.realPath or layer.identifier}: {camera_path}" if layer else camera_path
+            raise InputError(where, str(exc).split(": ", 1)[-1]) from None
+        if product.disable_dof and sensor.sensor["type"] == "thinlens":
+            sensor.sensor["type"] = "perspective"
+            del sensor.sensor["aperture_radius"], sensor.sensor["focus_distance"]
+    else:
+        view = (framing, (width, height), (product.pixel_aspect, product.conform))
+        sensor = camera_translator.default_view(delegate.stage, delegate.time, synced, *view, diag)
+    plan = aov_layers.plan(product, diag)
+    return _Job(product, plan, (width, height), film_width, camera_path, sensor)
+
+
+def _finish_aovs(job: _Job, images: dict[str, np.ndarray]) -> None:
+    """Depth from the camera and white-balanced albedo (see :func:`aovs.finish`)."""
+    from pavonine.render.passes import pixel_aspect_resampler
+
+    cosines = None
+    if job.plan.distances:
+        cosines = aov_layers.pinhole_cosines(job.sensor.sensor, (job.film_width, job.size[1]))
+        resample = pixel_aspect_resampler(job.film_width, job.size[0])
+        if resample is not None:
+            cosines = cosines @ resample.T
+    white = aov_layers.albedo_white() if "albedo" in job.plan.aovs else None
+    near = float(job.sensor.sensor.get("near_clip", 0.0))
+    aov_layers.finish(job.plan, images, cosines, near, white)
+
+
+def _sensor_dict(job: _Job) -> dict:
+    return {
+        **job.sensor.sensor,
+        "film": {
+            "type": "hdrfilm",
+            "width": int(job.film_width),
+            "height": int(job.size[1]),
+            "pixel_format": "rgba" if job.plan.alpha else "rgb",
+            "rfilter": {"type": job.sensor.rfilter},
+        },
+        "sampler": {"type": "independent"},
+    }
+
+
+class _progress:
+    """A rich progress bar over every product's samples (on stderr; hidden when disabled)."""
+
+    def __init__(self, stage_path, jobs: list[_Job], spp: int, enabled: bool):
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        sizes = ", ".join(f"{j.size[0]}×{j.size[1]}" for j in jobs)
+        label = f"render {os.path.basename(os.fspath(stage_path))} {sizes}"
+        self.bar = Progress(
+            TextColumn(label),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total} spp"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            disable=not enabled,
+            transient=False,
+        )
+        self.total = spp * len(jobs)
+
+    def __enter__(self):
+        self.bar.__enter__()
+        task = self.bar.add_task("render", total=self.total)
+        return lambda n: self.bar.update(task, advance=n)
+
+    def __exit__(self, *exc):
+        return self.bar.__exit__(*exc)
+
+
+def _time_label(time_code) -> Any:
+    if time_code.IsDefault():
+        return "default"
+    return "earliest" if time_code.IsEarliestTime() else float(time_code.GetValue())
+
+
+def _select(variant: str | None):
+    try:
+        return select_variant(variant)
+    except (ImportError, ValueError, AttributeError) as exc:
+        raise InputError(
+            "--variant", f"cannot use Mitsuba variant {variant!r}: {first_line(exc)}"
+        ) from None
+
+
+def _versions() -> dict[str, str]:
+    import drjit
+    import mitsuba
+    from pxr import Usd
+
+    from pavonine import __version__
+
+    return {
+        "pavonine": __version__,
+        "mitsuba": mitsuba.__version__,
+        "drjit": drjit.__version__,
+        "usd": ".".join(str(v) for v in Usd.GetVersion()),
+    }
+
+
+def scene_objects(shapes: dict[str, Any], emitters: dict[str, Any]) -> dict[str, Any]:
+    """Shapes and emitters keyed by unique Mitsuba scene-dict ids.
+
+    Prim-derived names (``/a/b#0``, ``/Sun``) become ``mesh_a__b_0`` / ``light_Sun`` (Mitsuba
+    ids may not contain ``.`` or ``/``); a name that maps onto an id already taken gets a ``_N``
+    suffix, so ``/a/b`` and ``/a__b`` stay two objects. Internal ids (``shapegroup_N``,
+    ``instance_N``, ``default_sun``) are kept verbatim, since instances refer to them.
+    """
+    items = [("mesh", name, entry) for name, entry in shapes.items()]
+    items += [("light", name, entry) for name, entry in emitters.items()]
+    taken = {name for _, name, _ in items if not name.startswith("/")}
+    objects: dict[str, Any] = {}
+    for prefix, name, entry in items:
+        key = name
+        if name.startswith("/"):
+            base = f"{prefix}_" + re.sub(r"[^A-Za-z0-9_]", "_", name[1:].replace("/", "__"))
+            key, n = base, 1
+            while key in taken:
+                key, n = f"{base}_{n}", n + 1
+            taken.add(key)
+        objects[key] = entry
+    return objects
