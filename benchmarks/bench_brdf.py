@@ -29,8 +29,8 @@ def main() -> None:
 
     from pavonine.materials import rod
     from pavonine.materials.brdf import RowTable
+    from pavonine.materials.jit import JitMaterial
     from pavonine.materials.parameters import preset
-    from pavonine.render.feather_bsdf import JitMaterial
 
     params = preset("paper-table1")
     rod.row_reflectance_table.cache_clear()

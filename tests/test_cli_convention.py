@@ -336,8 +336,8 @@ def test_threads_option_holds_while_the_command_runs_and_not_after(monkeypatch):
     option was parsed) the process is as it was, so in-process callers never inherit it."""
     import drjit as dr
 
-    from pavonine.base import backend
     from pavonine.apps.farm import cli as farm
+    from pavonine.base import backend
     from pavonine.base.errors import InputError
 
     def state() -> tuple:

@@ -314,7 +314,7 @@ def test_a_colour_map_is_read_as_its_rec709_luma_as_convert_reads_it(tmp_path):
     import OpenImageIO as oiio
 
     from pavonine.base.map_files import grey_values
-    from pavonine.render.feather_bsdf import _bitmap
+    from pavonine.render.feather_encoding import _bitmap
 
     rgb = np.zeros((4, 4, 3), np.float32)
     rgb[..., 0], rgb[..., 1], rgb[..., 2] = 0.9, 0.2, 0.5

@@ -38,33 +38,32 @@ probability w, cosine-weighted hemisphere for the melanin part otherwise.
 
 from __future__ import annotations
 
-import functools
 import math
+
+import drjit as dr
+import mitsuba as mi
 
 from pavonine.base.backend import select_variant
 from pavonine.materials import barbule, glitter
-from pavonine.materials.brdf import (
-    UM_TO_NM,
-    MaterialConstants,
-    feather_brdf,
-    reflectance_table,
-    srgb_model_eval,
-)
-from pavonine.materials.parameters import FeatherParameters
+from pavonine.materials.jit import JitMaterial
 from pavonine.render.feather_encoding import (
+    BARB_COORDINATE_ATTRIBUTE,
+    BARB_TANGENT_ATTRIBUTE,
     DATA_MAPS,
     DISPERSIONS,
+    FRAME_FLOATS,
+    INSTANCE_FRAME,
+    MAP_DEFAULTS,
     PLUGIN_NAME,
     PRIMVAR_SLOTS,
+    SAMPLING_WAVELENGTH_NM,
     WORLD_UNIT_UM,
-    _bitmap,
-    _class_bitmap,
     decode_parameters,
     encode_parameters,
     feather_bsdf_dict,
     load_with_feathers,
 )
-from pavonine.render.plugins import register_once
+from pavonine.render.plugins import register_once, variant_class
 
 __all__ = [
     "BARB_COORDINATE_ATTRIBUTE",
@@ -76,477 +75,393 @@ __all__ = [
     "MAP_DEFAULTS",
     "PLUGIN_NAME",
     "PRIMVAR_SLOTS",
-    "QUANTITIES",
     "SAMPLING_WAVELENGTH_NM",
     "WORLD_UNIT_UM",
+    "FeatherBSDF",
     "JitMaterial",
-    "_bitmap",
-    "_class_bitmap",
-    "class_tables",
     "decode_parameters",
     "encode_parameters",
     "feather_bsdf_dict",
-    "gather_stacks",
     "load_with_feathers",
     "register",
 ]
 
-BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
-#: Tessellated barbs' (length along, place across, barb id): ``barb_coordinates`` set.
-BARB_COORDINATE_ATTRIBUTE = "vertex_barb_coordinate"
-SAMPLING_WAVELENGTH_NM = 550.0
-QUANTITIES = ("interval", "radius", "count")
-MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
-#: Per-instance frame table: world→instance 3×4 (row-major) then instance→world linear 3×3.
-INSTANCE_FRAME = "instance_frame"
-FRAME_FLOATS = 21
 _IDENTITY_FRAME = (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0)
 
 
-def class_tables(params: FeatherParameters, ops) -> dict:
-    """Per-class (black, white) stack tables as Dr.Jit arrays, lengths in nm: ``{axis}_{quantity}``."""
-    scale = {"interval": UM_TO_NM, "radius": UM_TO_NM, "count": 1.0}
-    arrays = params.class_arrays()
-    return {
-        f"{axis}_{q}": ops.buffer(arrays[f"{axis}_{q}"] * scale[q])
-        for axis in ("long", "short")
-        for q in QUANTITIES
-    }
+class FeatherBSDF:
+    """The ``pavonine_feather`` BSDF (module docstring), bound to the active variant's
+    ``mi.BSDF`` when registered (:func:`pavonine.render.plugins.register_once`).
 
+    Properties (:func:`~pavonine.render.feather_encoding.feather_bsdf_dict` writes them): the
+    feather's parameters (:func:`~pavonine.render.feather_encoding.encode_parameters`); the maps
+    ``ocellar``, ``gradation``, ``angle``, ``melanin`` (textures, data); their primvar twins
+    ``<map>_primvar`` (:data:`PRIMVAR_SLOTS`); ``barb_tangents`` and ``barb_coordinates``
+    (bool: the mesh carries :data:`BARB_TANGENT_ATTRIBUTE` / :data:`BARB_COORDINATE_ATTRIBUTE`);
+    ``world_unit_um`` (µm per scene unit, default :data:`WORLD_UNIT_UM`).
+    """
 
-def gather_stacks(tables: dict, ocellar_class, gradation, ops) -> list[tuple]:
-    """``[long, short]`` stacks ``(interval_nm, radius_nm, count)`` per lane: Table 1 lerped by gradation."""
-    base = ocellar_class * 2
-    stacks = []
-    for axis in ("long", "short"):
-        values = []
-        for q in QUANTITIES:
-            table = tables[f"{axis}_{q}"]
-            black = ops.gather(table, base)
-            white = ops.gather(table, base + 1)
-            values.append(black + (white - black) * gradation)
-        stacks.append(tuple(values))
-    return stacks
-
-
-class JitMaterial:
-    """The feather material's state as Dr.Jit arrays: what :func:`feather_brdf` needs per lane."""
-
-    def __init__(self, params: FeatherParameters):
-        import mitsuba as mi
-
-        from pavonine.materials.arraymath import DrJitOps
-
-        self.params = params.validate()
-        self.ops = DrJitOps()
-        self.constants = MaterialConstants.from_parameters(params)
-        table = reflectance_table(params)
-        self.table = table.with_values(self.ops.buffer(table.values))
-        self.class_tables = class_tables(params, self.ops)
-        self.melanin_coefficients = [
-            float(c) for c in mi.srgb_model_fetch(mi.ScalarColor3f(*params.melanin_color))
-        ]
-
-    def stacks(self, ocellar_class, gradation) -> list[tuple]:
-        """``[long, short]`` stacks per lane: Table 1 dimensions (:func:`gather_stacks`) in the
-        paper modes, ``(table entry, gradation)`` in the physical mode."""
-        if self.constants.interference == "physical":
-            return [(self.table.entry(ocellar_class, axis), gradation) for axis in (0, 1)]
-        return gather_stacks(self.class_tables, ocellar_class, gradation, self.ops)
-
-    def brdf(self, wi, wo, wavelength_nm, long_stack, short_stack, share, block_slope=None):
-        """BRDF (1/sr, no cosine) per lane for barbule-frame ``mi.Vector3f`` directions
-        (``block_slope``: the lane's block, :func:`pavonine.materials.brdf.structural_brdf`)."""
-        albedo = srgb_model_eval(self.melanin_coefficients, wavelength_nm, self.ops)
-        return feather_brdf(
-            self.constants,
-            self.table,
-            (wi.x, wi.y, wi.z),
-            (wo.x, wo.y, wo.z),
-            wavelength_nm,
-            long_stack,
-            short_stack,
-            share,
-            albedo,
-            self.ops,
-            block_slope,
-        )
-
-
-@functools.cache
-def _plugin_class(variant: str):
-    """Define the BSDF class for the active variant (Mitsuba classes are per variant)."""
-    import drjit as dr
-    import mitsuba as mi
-
-    class FeatherBSDF(mi.BSDF):
-        """Peacock-feather BSDF; see :mod:`pavonine.render.feather_bsdf`."""
-
-        def __init__(self, props: mi.Properties):
-            mi.BSDF.__init__(self, props)
-            self.material = JitMaterial(decode_parameters(props))
-            self.params, self.constants = self.material.params, self.material.constants
-            self.n_classes = len(self.params.classes)
-            self.maps = {name: props.get(name, None) for name in DATA_MAPS}
-            self.primvars = {name: props.get(slot, None) for name, slot in PRIMVAR_SLOTS.items()}
-            self.barb_tangents = bool(props.get("barb_tangents", False))
-            self.barb_coordinates = bool(props.get("barb_coordinates", False))
-            self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
-            self.alpha_x_sampling = float(
-                barbule.beckmann_alpha(
-                    barbule.along_sigma(
-                        self.constants.block_sigma,
-                        self.constants.rod_length_nm,
-                        SAMPLING_WAVELENGTH_NM,
-                    )
-                )
-            )
-            self.glitter = float(self.constants.glitter)
-            self.world_unit_um = float(props.get("world_unit_um", WORLD_UNIT_UM))
-            if self.glitter > 0.0:
-                sampling_sigma = barbule.along_sigma(
+    def __init__(self, props: mi.Properties):
+        mi.BSDF.__init__(self, props)
+        self.material = JitMaterial(decode_parameters(props))
+        self.params, self.constants = self.material.params, self.material.constants
+        self.n_classes = len(self.params.classes)
+        self.maps = {name: props.get(name, None) for name in DATA_MAPS}
+        self.primvars = {name: props.get(slot, None) for name, slot in PRIMVAR_SLOTS.items()}
+        self.barb_tangents = bool(props.get("barb_tangents", False))
+        self.barb_coordinates = bool(props.get("barb_coordinates", False))
+        self.alpha_y = barbule.SQRT2 * math.tan(self.constants.crescent_sigma)
+        self.alpha_x_sampling = float(
+            barbule.beckmann_alpha(
+                barbule.along_sigma(
                     self.constants.block_sigma,
                     self.constants.rod_length_nm,
                     SAMPLING_WAVELENGTH_NM,
                 )
-                speckle, within = glitter.speckle_split(
-                    self.glitter,
-                    self.constants.block_sigma,
-                    sampling_sigma,
-                    barbule.diffraction_sigma(self.constants.rod_length_nm, SAMPLING_WAVELENGTH_NM),
-                    barbule.diffraction_sigma(
-                        self.constants.block_length_nm, SAMPLING_WAVELENGTH_NM
-                    ),
-                )
-                # A grain sits at tilt + z·speckle(λ), speckle ∝ λ: over 380–780 nm it strays
-                # from its 550 nm place by up to ~0.4 z·speckle, so each grain is sampled with
-                # a lobe widened by a third of the speckle spread (sampling only).
-                self.grain_speckle = float(speckle)
-                self.block_alpha_x = float(barbule.SQRT2 * math.hypot(within, speckle / 3.0))
-                self.grains = glitter.grain_count(
-                    self.params.block_length_um, self.params.rod_length_um
-                )
-            lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
-            sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
-            self.m_components = [
-                mi.BSDFFlags.GlossyReflection
-                | mi.BSDFFlags.Anisotropic
-                | sided
-                | mi.BSDFFlags.SpatiallyVarying,
-                mi.BSDFFlags.DiffuseReflection | sided | mi.BSDFFlags.SpatiallyVarying,
-            ]
-            self.m_flags = lobes | sided | mi.BSDFFlags.Anisotropic | mi.BSDFFlags.SpatiallyVarying
-            self.instance_tables: dict[str, tuple] = {}
-
-        def set_instance_table(self, key: str, table, neutral: float) -> None:
-            """Per-instance values of ``key`` by registry id (``pavonine.render.instance_primvars``).
-
-            The table's entry count enters the kernel as an *opaque* value: the registry ids,
-            hence the table's length, differ from one scene build to the next, and a literal
-            length would make every build trace a new kernel (a full LLVM compile of the
-            whole path tracer, the dominant cost of rendering a train twice in one process).
-            """
-            entries = None
-            if not isinstance(table, dict):
-                stride = FRAME_FLOATS if key == INSTANCE_FRAME else 1
-                entries = dr.opaque(mi.UInt32, dr.width(table) // stride)
-            self.instance_tables[key] = (table, float(neutral), entries)
-
-        def _barb_tangent(self, si, active):
-            """The mesh's barb-tangent attribute at ``si``, in world space."""
-            local, linear = self._instance_local(si, active)
-            a = mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, local, active))
-            if linear is None:
-                return a
-            return mi.Vector3f(
-                *(
-                    linear[3 * r] * a.x + linear[3 * r + 1] * a.y + linear[3 * r + 2] * a.z
-                    for r in range(3)
-                )
             )
-
-        def _instance_local(self, si, active):
-            """``si`` in the hit instance's own space, and the instance's linear part (9 floats,
-            row-major; ``None`` when no instance frames are bound).
-
-            Mitsuba's ``Mesh.eval_attribute`` finds barycentric coordinates from ``si.p``
-            against the mesh's own vertices, so a hit through an ``instance`` (``si.p`` in world
-            space, the vertices in prototype space) reads garbage. The hit point is taken into
-            the instance's space first (``INSTANCE_FRAME`` table); attributes read there.
-            """
-            entry = self.instance_tables.get(INSTANCE_FRAME)
-            if entry is None:
-                return si, None
-            table, _, entries = entry
-            if isinstance(table, dict):  # scalar variants: the instance object itself
-                frame = table.get(si.instance.id()) if si.instance is not None else None
-                m = frame if frame is not None else _IDENTITY_FRAME
-            else:
-                index = dr.reinterpret_array(mi.UInt32, si.instance)
-                inside = index < entries
-                base = dr.select(inside, index, 0) * FRAME_FLOATS
-                m = [dr.gather(mi.Float, table, base + k, active) for k in range(FRAME_FLOATS)]
-            p = si.p
-            local = dr.zeros(mi.SurfaceInteraction3f)
-            local.prim_index = si.prim_index
-            local.shape = si.shape
-            local.p = mi.Point3f(
-                *(
-                    m[4 * r] * p.x + m[4 * r + 1] * p.y + m[4 * r + 2] * p.z + m[4 * r + 3]
-                    for r in range(3)
-                )
+        )
+        self.glitter = float(self.constants.glitter)
+        self.world_unit_um = float(props.get("world_unit_um", WORLD_UNIT_UM))
+        if self.glitter > 0.0:
+            sampling_sigma = barbule.along_sigma(
+                self.constants.block_sigma,
+                self.constants.rod_length_nm,
+                SAMPLING_WAVELENGTH_NM,
             )
-            return local, m[12:]
-
-        def _per_instance(self, key: str, si, active):
-            """The value of ``key`` for the instance each lane hit (``None``: nothing bound)."""
-            entry = self.instance_tables.get(key)
-            if entry is None:
-                return None
-            table, neutral, entries = entry
-            if isinstance(table, dict):  # scalar variants: the instance object itself
-                instance = si.instance
-                return table.get(instance.id(), neutral) if instance is not None else neutral
-            index = dr.reinterpret_array(mi.UInt32, si.instance)
-            inside = index < entries
-            return dr.select(inside, dr.gather(mi.Float, table, index, active & inside), neutral)
-
-        # -- per-point material state ------------------------------------------------------
-        def _map(self, name: str, si, active):
-            """The map's value at ``si`` (its grey level), from its primvar twin when bound."""
-            primvar = self.primvars[name]
-            if primvar is not None:
-                if isinstance(primvar, float):
-                    value = mi.Float(primvar)
-                else:
-                    value = primvar.eval_1(self._instance_local(si, active)[0], active)
-                    # NaN where Mitsuba's barycentric solve fails (a needle triangle): neutral,
-                    # never a NaN class or table index (see curves.sampling.conditioned_triangles)
-                    value = dr.select(dr.isfinite(value), value, self._neutral_value(name))
-                if name == "ocellar":  # class index → grey (class k at 1 − k/(n − 1))
-                    return 1.0 - value / max(self.n_classes - 1, 1)
-                if name == "angle":  # degrees → grey (the axis is a line: 180° periodic)
-                    return value / 180.0 - dr.floor(value / 180.0)
-                return value
-            texture = self.maps[name]
-            if texture is None:
-                return mi.Float(MAP_DEFAULTS[name])
-            return texture.eval_1(si, active)
-
-        def _neutral_value(self, name: str) -> float:
-            """The primvar value of the map's neutral grey (class index, gradation, share,
-            degrees)."""
-            grey = MAP_DEFAULTS[name]
-            if name == "ocellar":
-                return (1.0 - grey) * max(self.n_classes - 1, 1)
-            return grey * 180.0 if name == "angle" else grey
-
-        def _point(self, si, active):
-            """Barbule-frame rotation (cos, sin), the two stacks and the structural share at ``si``."""
-            grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
-            cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
-            t = self._map("gradation", si, active)
-            offset = self._per_instance("gradation_offset", si, active)
-            t = dr.clip(t if offset is None else t + offset, 0.0, 1.0)
-            stacks = self.material.stacks(cls, t)
-            angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
-            from_barb = angle
-            if self.barb_tangents:
-                barb = si.sh_frame.to_local(self._barb_tangent(si, active))
-                usable = dr.square(barb.x) + dr.square(barb.y) > 1e-12
-                angle += dr.select(usable, dr.atan2(barb.y, barb.x), 0.0)
-            share = self._map("melanin", si, active)
-            scale = self._per_instance("structural_scale", si, active)
-            share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
-            block = None
-            if self.glitter > 0.0:
-                block = self._block_slope(si, from_barb if self.barb_coordinates else angle, active)
-            return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, block
-
-        def _block_slope(self, si, angle, active):
-            """The block under ``si`` (:mod:`pavonine.materials.glitter`): its tilt and grains.
-
-            On the vane sheet the block comes from the feather coordinate ``si.uv`` in µm
-            (``u |dp/du|``, ``v |dp/dv|``) in the frame of the barbule axis ``angle`` (radians
-            from ``dp/du`` in the shading frame). On a tessellated barb (``barb_coordinates``)
-            it comes from the barb's own coordinate (``BARB_COORDINATE_ATTRIBUTE``: length along
-            the barb and place across it, turned into the barbule axis ``angle`` from the barb),
-            and the barb's id goes into the seed.
-            """
-            ops = self.material.ops
-            scale = self.world_unit_um
-            barb = None
-            if self.barb_coordinates:
-                local, linear = self._instance_local(si, active)
-                c = mi.Vector3f(si.shape.eval_attribute_3(BARB_COORDINATE_ATTRIBUTE, local, active))
-                if linear is not None:  # an instance's own scale (mean of its linear part)
-                    scale = scale * dr.cbrt(dr.abs(dr.det(mi.Matrix3f(*linear))))
-                u_um, v_um = c.x * scale, c.y * scale
-                barb = ops.to_uint32(dr.round(c.z))
-            else:
-                u_um = si.uv.x * dr.norm(si.dp_du) * scale
-                v_um = si.uv.y * dr.norm(si.dp_dv) * scale
-                flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
-                angle = dr.select(flip, -angle, angle)
-            along, across, step = glitter.sheet_coordinates(u_um, v_um, angle, ops)
-            barbule_index, block_index = glitter.block_cell(
-                along, across, self.params.block_length_um, self.params.barbule_width_um, ops
-            )
-            seed = self.params.glitter_seed
-            instance = self._per_instance("glitter_seed", si, active)
-            if instance is not None:
-                seed = seed ^ ops.to_uint32(instance)
-            seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
-            if barb is not None:
-                seed = glitter.lowbias32(seed ^ ((barb * 0x2545F491) & glitter.MASK32))
-            return glitter.block_state(
+            speckle, within = glitter.speckle_split(
                 self.glitter,
                 self.constants.block_sigma,
-                barbule_index,
-                block_index,
-                seed,
-                self.grains,
-                ops,
+                sampling_sigma,
+                barbule.diffraction_sigma(self.constants.rod_length_nm, SAMPLING_WAVELENGTH_NM),
+                barbule.diffraction_sigma(self.constants.block_length_nm, SAMPLING_WAVELENGTH_NM),
             )
+            # A grain sits at tilt + z·speckle(λ), speckle ∝ λ: over 380–780 nm it strays
+            # from its 550 nm place by up to ~0.4 z·speckle, so each grain is sampled with
+            # a lobe widened by a third of the speckle spread (sampling only).
+            self.grain_speckle = float(speckle)
+            self.block_alpha_x = float(barbule.SQRT2 * math.hypot(within, speckle / 3.0))
+            self.grains = glitter.grain_count(
+                self.params.block_length_um, self.params.rod_length_um
+            )
+        lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
+        sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+        self.m_components = [
+            mi.BSDFFlags.GlossyReflection
+            | mi.BSDFFlags.Anisotropic
+            | sided
+            | mi.BSDFFlags.SpatiallyVarying,
+            mi.BSDFFlags.DiffuseReflection | sided | mi.BSDFFlags.SpatiallyVarying,
+        ]
+        self.m_flags = lobes | sided | mi.BSDFFlags.Anisotropic | mi.BSDFFlags.SpatiallyVarying
+        self.instance_tables: dict[str, tuple] = {}
 
-        @staticmethod
-        def _to_barbule(v, c, s):
-            return mi.Vector3f(c * v.x + s * v.y, -s * v.x + c * v.y, v.z)
+    def set_instance_table(self, key: str, table, neutral: float) -> None:
+        """Per-instance values of ``key`` by registry id (``pavonine.render.instance_primvars``).
 
-        @staticmethod
-        def _from_barbule(v, c, s):
-            return mi.Vector3f(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+        The table's entry count enters the kernel as an *opaque* value: the registry ids,
+        hence the table's length, differ from one scene build to the next, and a literal
+        length would make every build trace a new kernel (a full LLVM compile of the
+        whole path tracer, the dominant cost of rendering a train twice in one process).
+        """
+        entries = None
+        if not isinstance(table, dict):
+            stride = FRAME_FLOATS if key == INSTANCE_FRAME else 1
+            entries = dr.opaque(mi.UInt32, dr.width(table) // stride)
+        self.instance_tables[key] = (table, float(neutral), entries)
 
-        def _brdf(self, si, wi, wo, state, active):
-            """Spectral BRDF value (no cosine) for barbule-frame directions."""
-            _, _, long_stack, short_stack, share, block = state
-            out = [
-                self.material.brdf(wi, wo, si.wavelengths[k], long_stack, short_stack, share, block)
-                for k in range(len(si.wavelengths))
-            ]
-            return mi.Spectrum(out)
+    def _barb_tangent(self, si, active):
+        """The mesh's barb-tangent attribute at ``si``, in world space."""
+        local, linear = self._instance_local(si, active)
+        a = mi.Vector3f(si.shape.eval_attribute_3(BARB_TANGENT_ATTRIBUTE, local, active))
+        if linear is None:
+            return a
+        return mi.Vector3f(
+            *(
+                linear[3 * r] * a.x + linear[3 * r + 1] * a.y + linear[3 * r + 2] * a.z
+                for r in range(3)
+            )
+        )
 
-        def _lobe_pdf(self, wi, wo, share, block=None):
-            """Mixture density of the two sampling strategies (barbule frame, upper hemisphere)."""
-            m = dr.normalize(wi + wo)
-            if block is None:
-                distr = mi.MicrofacetDistribution(
-                    mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
-                )
-                glossy = distr.pdf(wi, m) / (4.0 * dr.abs(dr.dot(wo, m)))
+    def _instance_local(self, si, active):
+        """``si`` in the hit instance's own space, and the instance's linear part (9 floats,
+        row-major; ``None`` when no instance frames are bound).
+
+        Mitsuba's ``Mesh.eval_attribute`` finds barycentric coordinates from ``si.p``
+        against the mesh's own vertices, so a hit through an ``instance`` (``si.p`` in world
+        space, the vertices in prototype space) reads garbage. The hit point is taken into
+        the instance's space first (``INSTANCE_FRAME`` table); attributes read there.
+        """
+        entry = self.instance_tables.get(INSTANCE_FRAME)
+        if entry is None:
+            return si, None
+        table, _, entries = entry
+        if isinstance(table, dict):  # scalar variants: the instance object itself
+            frame = table.get(si.instance.id()) if si.instance is not None else None
+            m = frame if frame is not None else _IDENTITY_FRAME
+        else:
+            index = dr.reinterpret_array(mi.UInt32, si.instance)
+            inside = index < entries
+            base = dr.select(inside, index, 0) * FRAME_FLOATS
+            m = [dr.gather(mi.Float, table, base + k, active) for k in range(FRAME_FLOATS)]
+        p = si.p
+        local = dr.zeros(mi.SurfaceInteraction3f)
+        local.prim_index = si.prim_index
+        local.shape = si.shape
+        local.p = mi.Point3f(
+            *(
+                m[4 * r] * p.x + m[4 * r + 1] * p.y + m[4 * r + 2] * p.z + m[4 * r + 3]
+                for r in range(3)
+            )
+        )
+        return local, m[12:]
+
+    def _per_instance(self, key: str, si, active):
+        """The value of ``key`` for the instance each lane hit (``None``: nothing bound)."""
+        entry = self.instance_tables.get(key)
+        if entry is None:
+            return None
+        table, neutral, entries = entry
+        if isinstance(table, dict):  # scalar variants: the instance object itself
+            instance = si.instance
+            return table.get(instance.id(), neutral) if instance is not None else neutral
+        index = dr.reinterpret_array(mi.UInt32, si.instance)
+        inside = index < entries
+        return dr.select(inside, dr.gather(mi.Float, table, index, active & inside), neutral)
+
+    # -- per-point material state ------------------------------------------------------
+    def _map(self, name: str, si, active):
+        """The map's value at ``si`` (its grey level), from its primvar twin when bound."""
+        primvar = self.primvars[name]
+        if primvar is not None:
+            if isinstance(primvar, float):
+                value = mi.Float(primvar)
             else:
-                glossy = self._block_normal_pdf(m, block) / (4.0 * dr.abs(dr.dot(wo, m)))
-            diffuse = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-            pdf = share * dr.select(dr.dot(wo, m) > 0, glossy, 0.0) + (1.0 - share) * diffuse
-            return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
+                value = primvar.eval_1(self._instance_local(si, active)[0], active)
+                # NaN where Mitsuba's barycentric solve fails (a needle triangle): neutral,
+                # never a NaN class or table index (see curves.sampling.conditioned_triangles)
+                value = dr.select(dr.isfinite(value), value, self._neutral_value(name))
+            if name == "ocellar":  # class index → grey (class k at 1 − k/(n − 1))
+                return 1.0 - value / max(self.n_classes - 1, 1)
+            if name == "angle":  # degrees → grey (the axis is a line: 180° periodic)
+                return value / 180.0 - dr.floor(value / 180.0)
+            return value
+        texture = self.maps[name]
+        if texture is None:
+            return mi.Float(MAP_DEFAULTS[name])
+        return texture.eval_1(si, active)
 
-        def _block_normal_pdf(self, m, block):
-            """Density (per solid angle) of the normals the block's sampling draws: its grains'
-            shifted Beckmann lobes at 550 nm, widened (``D(m) m_z``)."""
-            d = glitter.block_ndf(
-                m.x,
-                m.y,
-                m.z,
-                self.block_alpha_x,
-                self.alpha_y,
-                block,
-                self.grain_speckle,
-                self.material.ops,
+    def _neutral_value(self, name: str) -> float:
+        """The primvar value of the map's neutral grey (class index, gradation, share,
+        degrees)."""
+        grey = MAP_DEFAULTS[name]
+        if name == "ocellar":
+            return (1.0 - grey) * max(self.n_classes - 1, 1)
+        return grey * 180.0 if name == "angle" else grey
+
+    def _point(self, si, active):
+        """Barbule-frame rotation (cos, sin), the two stacks and the structural share at ``si``."""
+        grey = dr.clip(self._map("ocellar", si, active), 0.0, 1.0)
+        cls = dr.clip(dr.round((1.0 - grey) * (self.n_classes - 1)), 0, self.n_classes - 1)
+        t = self._map("gradation", si, active)
+        offset = self._per_instance("gradation_offset", si, active)
+        t = dr.clip(t if offset is None else t + offset, 0.0, 1.0)
+        stacks = self.material.stacks(cls, t)
+        angle = dr.clip(self._map("angle", si, active), 0.0, 1.0) * dr.pi
+        from_barb = angle
+        if self.barb_tangents:
+            barb = si.sh_frame.to_local(self._barb_tangent(si, active))
+            usable = dr.square(barb.x) + dr.square(barb.y) > 1e-12
+            angle += dr.select(usable, dr.atan2(barb.y, barb.x), 0.0)
+        share = self._map("melanin", si, active)
+        scale = self._per_instance("structural_scale", si, active)
+        share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
+        block = None
+        if self.glitter > 0.0:
+            block = self._block_slope(si, from_barb if self.barb_coordinates else angle, active)
+        return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, block
+
+    def _block_slope(self, si, angle, active):
+        """The block under ``si`` (:mod:`pavonine.materials.glitter`): its tilt and grains.
+
+        On the vane sheet the block comes from the feather coordinate ``si.uv`` in µm
+        (``u |dp/du|``, ``v |dp/dv|``) in the frame of the barbule axis ``angle`` (radians
+        from ``dp/du`` in the shading frame). On a tessellated barb (``barb_coordinates``)
+        it comes from the barb's own coordinate (``BARB_COORDINATE_ATTRIBUTE``: length along
+        the barb and place across it, turned into the barbule axis ``angle`` from the barb),
+        and the barb's id goes into the seed.
+        """
+        ops = self.material.ops
+        scale = self.world_unit_um
+        barb = None
+        if self.barb_coordinates:
+            local, linear = self._instance_local(si, active)
+            c = mi.Vector3f(si.shape.eval_attribute_3(BARB_COORDINATE_ATTRIBUTE, local, active))
+            if linear is not None:  # an instance's own scale (mean of its linear part)
+                scale = scale * dr.cbrt(dr.abs(dr.det(mi.Matrix3f(*linear))))
+            u_um, v_um = c.x * scale, c.y * scale
+            barb = ops.to_uint32(dr.round(c.z))
+        else:
+            u_um = si.uv.x * dr.norm(si.dp_du) * scale
+            v_um = si.uv.y * dr.norm(si.dp_dv) * scale
+            flip = dr.dot(si.dp_dv, si.sh_frame.t) < 0.0
+            angle = dr.select(flip, -angle, angle)
+        along, across, step = glitter.sheet_coordinates(u_um, v_um, angle, ops)
+        barbule_index, block_index = glitter.block_cell(
+            along, across, self.params.block_length_um, self.params.barbule_width_um, ops
+        )
+        seed = self.params.glitter_seed
+        instance = self._per_instance("glitter_seed", si, active)
+        if instance is not None:
+            seed = seed ^ ops.to_uint32(instance)
+        seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
+        if barb is not None:
+            seed = glitter.lowbias32(seed ^ ((barb * 0x2545F491) & glitter.MASK32))
+        return glitter.block_state(
+            self.glitter,
+            self.constants.block_sigma,
+            barbule_index,
+            block_index,
+            seed,
+            self.grains,
+            ops,
+        )
+
+    @staticmethod
+    def _to_barbule(v, c, s):
+        return mi.Vector3f(c * v.x + s * v.y, -s * v.x + c * v.y, v.z)
+
+    @staticmethod
+    def _from_barbule(v, c, s):
+        return mi.Vector3f(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+
+    def _brdf(self, si, wi, wo, state, active):
+        """Spectral BRDF value (no cosine) for barbule-frame directions."""
+        _, _, long_stack, short_stack, share, block = state
+        out = [
+            self.material.brdf(wi, wo, si.wavelengths[k], long_stack, short_stack, share, block)
+            for k in range(len(si.wavelengths))
+        ]
+        return mi.Spectrum(out)
+
+    def _lobe_pdf(self, wi, wo, share, block=None):
+        """Mixture density of the two sampling strategies (barbule frame, upper hemisphere)."""
+        m = dr.normalize(wi + wo)
+        if block is None:
+            distr = mi.MicrofacetDistribution(
+                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
             )
-            return d * m.z
+            glossy = distr.pdf(wi, m) / (4.0 * dr.abs(dr.dot(wo, m)))
+        else:
+            glossy = self._block_normal_pdf(m, block) / (4.0 * dr.abs(dr.dot(wo, m)))
+        diffuse = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+        pdf = share * dr.select(dr.dot(wo, m) > 0, glossy, 0.0) + (1.0 - share) * diffuse
+        return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
 
-        def _sample_block_normal(self, u, sample2, block):
-            """A normal of the block's sampling lobes: grain by its share (``u`` uniform), then
-            Box–Muller on ``sample2``."""
-            centre = block.tilt + block.grains[0] * self.grain_speckle
-            cumulative = block.weights[0]
-            for z, w in zip(block.grains[1:], block.weights[1:], strict=True):
-                centre = dr.select(u >= cumulative, block.tilt + z * self.grain_speckle, centre)
-                cumulative = cumulative + w
-            radius = dr.sqrt(-2.0 * dr.log(dr.maximum(1.0 - sample2.x, 1e-30)))
-            phi = 2.0 * dr.pi * sample2.y
-            slope_x = centre + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
-            slope_y = self.alpha_y * barbule.SQRT2 * 0.5 * radius * dr.sin(phi)
-            return dr.normalize(mi.Vector3f(-slope_x, -slope_y, 1.0))
+    def _block_normal_pdf(self, m, block):
+        """Density (per solid angle) of the normals the block's sampling draws: its grains'
+        shifted Beckmann lobes at 550 nm, widened (``D(m) m_z``)."""
+        d = glitter.block_ndf(
+            m.x,
+            m.y,
+            m.z,
+            self.block_alpha_x,
+            self.alpha_y,
+            block,
+            self.grain_speckle,
+            self.material.ops,
+        )
+        return d * m.z
 
-        def _upper(self, si, wo, state):
-            """Both directions in the barbule frame, mirrored to the upper side when lit from below."""
-            c, s = state[0], state[1]
-            sign = dr.select(si.wi.z < 0, -1.0, 1.0)
-            wi = self._to_barbule(si.wi, c, s)
-            wo = self._to_barbule(wo, c, s)
-            return mi.Vector3f(wi.x, wi.y, wi.z * sign), mi.Vector3f(wo.x, wo.y, wo.z * sign)
+    def _sample_block_normal(self, u, sample2, block):
+        """A normal of the block's sampling lobes: grain by its share (``u`` uniform), then
+        Box–Muller on ``sample2``."""
+        centre = block.tilt + block.grains[0] * self.grain_speckle
+        cumulative = block.weights[0]
+        for z, w in zip(block.grains[1:], block.weights[1:], strict=True):
+            centre = dr.select(u >= cumulative, block.tilt + z * self.grain_speckle, centre)
+            cumulative = cumulative + w
+        radius = dr.sqrt(-2.0 * dr.log(dr.maximum(1.0 - sample2.x, 1e-30)))
+        phi = 2.0 * dr.pi * sample2.y
+        slope_x = centre + self.block_alpha_x * barbule.SQRT2 * 0.5 * radius * dr.cos(phi)
+        slope_y = self.alpha_y * barbule.SQRT2 * 0.5 * radius * dr.sin(phi)
+        return dr.normalize(mi.Vector3f(-slope_x, -slope_y, 1.0))
 
-        # -- Mitsuba BSDF interface ---------------------------------------------------------
-        def eval(self, ctx, si, wo, active=True):
-            state = self._point(si, active)
-            wi_b, wo_b = self._upper(si, wo, state)
-            value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
-            return dr.select(active & (wi_b.z > 0) & (wo_b.z > 0), value, 0.0)
+    def _upper(self, si, wo, state):
+        """Both directions in the barbule frame, mirrored to the upper side when lit from below."""
+        c, s = state[0], state[1]
+        sign = dr.select(si.wi.z < 0, -1.0, 1.0)
+        wi = self._to_barbule(si.wi, c, s)
+        wo = self._to_barbule(wo, c, s)
+        return mi.Vector3f(wi.x, wi.y, wi.z * sign), mi.Vector3f(wo.x, wo.y, wo.z * sign)
 
-        def pdf(self, ctx, si, wo, active=True):
-            state = self._point(si, active)
-            wi_b, wo_b = self._upper(si, wo, state)
-            return dr.select(active, self._lobe_pdf(wi_b, wo_b, state[4], state[5]), 0.0)
+    # -- Mitsuba BSDF interface ---------------------------------------------------------
+    def eval(self, ctx, si, wo, active=True):
+        state = self._point(si, active)
+        wi_b, wo_b = self._upper(si, wo, state)
+        value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
+        return dr.select(active & (wi_b.z > 0) & (wo_b.z > 0), value, 0.0)
 
-        def eval_pdf(self, ctx, si, wo, active=True):
-            state = self._point(si, active)
-            wi_b, wo_b = self._upper(si, wo, state)
-            ok = active & (wi_b.z > 0) & (wo_b.z > 0)
-            value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
-            return dr.select(ok, value, 0.0), dr.select(
-                ok, self._lobe_pdf(wi_b, wo_b, state[4], state[5]), 0.0
+    def pdf(self, ctx, si, wo, active=True):
+        state = self._point(si, active)
+        wi_b, wo_b = self._upper(si, wo, state)
+        return dr.select(active, self._lobe_pdf(wi_b, wo_b, state[4], state[5]), 0.0)
+
+    def eval_pdf(self, ctx, si, wo, active=True):
+        state = self._point(si, active)
+        wi_b, wo_b = self._upper(si, wo, state)
+        ok = active & (wi_b.z > 0) & (wo_b.z > 0)
+        value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
+        return dr.select(ok, value, 0.0), dr.select(
+            ok, self._lobe_pdf(wi_b, wo_b, state[4], state[5]), 0.0
+        )
+
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        state = self._point(si, active)
+        c, s, share = state[0], state[1], state[4]
+        sign = dr.select(si.wi.z < 0, -1.0, 1.0)
+        wi_b = self._to_barbule(si.wi, c, s)
+        wi_b = mi.Vector3f(wi_b.x, wi_b.y, wi_b.z * sign)
+        glossy = sample1 < share
+        block = state[5]
+        if block is None:
+            distr = mi.MicrofacetDistribution(
+                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
             )
+            m, _ = distr.sample(wi_b, sample2)
+        else:
+            u = sample1 / dr.maximum(share, 1e-30)
+            m = self._sample_block_normal(u, sample2, block)
+        wo_glossy = mi.reflect(wi_b, m)
+        wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
+        wo_b = dr.select(glossy, wo_glossy, wo_diffuse)
+        pdf = self._lobe_pdf(wi_b, wo_b, share, block)
+        value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
+        ok = active & (wi_b.z > 0) & (wo_b.z > 0) & (pdf > 0)
+        if block is not None:
+            ok &= ~glossy | (dr.dot(wi_b, m) > 0.0)
 
-        def sample(self, ctx, si, sample1, sample2, active=True):
-            state = self._point(si, active)
-            c, s, share = state[0], state[1], state[4]
-            sign = dr.select(si.wi.z < 0, -1.0, 1.0)
-            wi_b = self._to_barbule(si.wi, c, s)
-            wi_b = mi.Vector3f(wi_b.x, wi_b.y, wi_b.z * sign)
-            glossy = sample1 < share
-            block = state[5]
-            if block is None:
-                distr = mi.MicrofacetDistribution(
-                    mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
-                )
-                m, _ = distr.sample(wi_b, sample2)
-            else:
-                u = sample1 / dr.maximum(share, 1e-30)
-                m = self._sample_block_normal(u, sample2, block)
-            wo_glossy = mi.reflect(wi_b, m)
-            wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
-            wo_b = dr.select(glossy, wo_glossy, wo_diffuse)
-            pdf = self._lobe_pdf(wi_b, wo_b, share, block)
-            value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
-            ok = active & (wi_b.z > 0) & (wo_b.z > 0) & (pdf > 0)
-            if block is not None:
-                ok &= ~glossy | (dr.dot(wi_b, m) > 0.0)
+        bs = dr.zeros(mi.BSDFSample3f)
+        wo_local = self._from_barbule(wo_b, c, s)
+        bs.wo = mi.Vector3f(wo_local.x, wo_local.y, wo_local.z * sign)
+        bs.pdf = dr.select(ok, pdf, 0.0)
+        bs.eta = 1.0
+        bs.sampled_type = dr.select(
+            glossy,
+            mi.UInt32(+mi.BSDFFlags.GlossyReflection),
+            mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
+        )
+        bs.sampled_component = dr.select(glossy, mi.UInt32(0), mi.UInt32(1))
+        weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
+        return bs, weight
 
-            bs = dr.zeros(mi.BSDFSample3f)
-            wo_local = self._from_barbule(wo_b, c, s)
-            bs.wo = mi.Vector3f(wo_local.x, wo_local.y, wo_local.z * sign)
-            bs.pdf = dr.select(ok, pdf, 0.0)
-            bs.eta = 1.0
-            bs.sampled_type = dr.select(
-                glossy,
-                mi.UInt32(+mi.BSDFFlags.GlossyReflection),
-                mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
-            )
-            bs.sampled_component = dr.select(glossy, mi.UInt32(0), mi.UInt32(1))
-            weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
-            return bs, weight
+    def traverse(self, callback):
+        pass
 
-        def traverse(self, callback):
-            pass
-
-        def to_string(self):
-            return f"FeatherBSDF[classes={self.n_classes}, interference={self.params.interference}]"
-
-    return FeatherBSDF
+    def to_string(self):
+        return f"FeatherBSDF[classes={self.n_classes}, interference={self.params.interference}]"
 
 
 def register() -> None:
     """Register the ``pavonine_feather`` BSDF with Mitsuba for the active (or default) variant."""
-    backend = select_variant()
-    register_once(PLUGIN_NAME, "bsdf", lambda: _plugin_class(backend.variant))
+    select_variant()
+    register_once(PLUGIN_NAME, "bsdf", lambda: variant_class(FeatherBSDF, "bsdf"))

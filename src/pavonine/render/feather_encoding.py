@@ -25,6 +25,17 @@ DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
 PRIMVAR_SLOTS = {name: f"{name}_primvar" for name in DATA_MAPS}
 #: Micrometres per scene unit unless told (Pavonine's assets: centimetres).
 WORLD_UNIT_UM = 1.0e4
+#: The mesh attribute of the barb direction (``barb_tangents`` set).
+BARB_TANGENT_ATTRIBUTE = "vertex_barb_tangent"
+#: Tessellated barbs' (length along, place across, barb id): ``barb_coordinates`` set.
+BARB_COORDINATE_ATTRIBUTE = "vertex_barb_coordinate"
+#: The wavelength (nm) whose lobe widths the BSDF's importance sampling uses.
+SAMPLING_WAVELENGTH_NM = 550.0
+#: Each data map's value where it is not bound (its neutral grey).
+MAP_DEFAULTS = {"ocellar": 1.0, "gradation": 0.0, "angle": 0.0, "melanin": 1.0}
+#: Per-instance frame table: world→instance 3×4 (row-major) then instance→world linear 3×3.
+INSTANCE_FRAME = "instance_frame"
+FRAME_FLOATS = 21
 
 
 def encode_parameters(params: FeatherParameters) -> dict:

@@ -139,7 +139,7 @@ def bind(scene, table, feather_bsdfs: Iterable) -> int:
     import drjit as dr
     import mitsuba as mi
 
-    from pavonine.render.feather_bsdf import FRAME_FLOATS, INSTANCE_FRAME
+    from pavonine.render.feather_encoding import FRAME_FLOATS, INSTANCE_FRAME
 
     feathers = list(feather_bsdfs)
     if not feathers or not table.instances:

@@ -15,7 +15,7 @@ linear Rec. 709 under D65: a Lambertian surface of that albedo returns exactly t
 radiance in the reference configuration. It is ``w·S + (1 − w)·M`` with ``w`` the melanin map's
 structural share, ``S`` the structural colour and ``M`` the melanin brown. ``S`` is the BRDF of
 :mod:`pavonine.materials.brdf` evaluated per texel and wavelength (380–780 nm, 10 nm) exactly as
-the renderer's feather BSDF does (``pavonine.render.feather_bsdf.JitMaterial``, JIT-compiled by
+the renderer's feather BSDF does (``pavonine.materials.jit.JitMaterial``, JIT-compiled by
 Dr.Jit; a NumPy fallback through ``pavonine.materials.optics.model_for(params).brdf`` where no
 LLVM variant is available), whatever the model's interference mode. Colours outside the sRGB
 gamut are clipped to it.
@@ -119,7 +119,7 @@ def _structure_jit(params, k, t, wi, wo) -> Structure:
     import drjit as dr
     import mitsuba as mi
 
-    from pavonine.render.feather_bsdf import JitMaterial
+    from pavonine.materials.jit import JitMaterial
 
     material = JitMaterial(params)
     n, count = len(k), len(WAVELENGTHS_NM)

@@ -151,7 +151,7 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
     """A feather material as it shades ``prim``'s ribbons: the ``pavonine_feather`` node alone
     (no alpha mask, no displacement); without ``pavonine_featherUV`` on the prim its maps are
     dropped too, and each mapped input the prim lacks as a primvar is warned about."""
-    from pavonine.render.feather_bsdf import DATA_MAPS
+    from pavonine.render.feather_encoding import DATA_MAPS
 
     api = UsdGeom.PrimvarsAPI(prim)
 
@@ -159,7 +159,7 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
         primvar = api.FindPrimvarWithInheritance(name)
         return bool(primvar) and primvar.HasValue()
 
-    from pavonine.render.feather_bsdf import BARB_COORDINATE_ATTRIBUTE
+    from pavonine.render.feather_encoding import BARB_COORDINATE_ATTRIBUTE
     from pavonine.render.mesh import BARB_COORDINATE
 
     core = dict(_feather_node(spec.bsdf), barb_coordinates=True)  # glitter follows the barbs
@@ -187,7 +187,7 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
 
 def _feather_node(bsdf: dict) -> dict:
     """The ``pavonine_feather`` node inside a feather material's wrappers (mask, bumpmap)."""
-    from pavonine.render.feather_bsdf import PLUGIN_NAME
+    from pavonine.render.feather_encoding import PLUGIN_NAME
 
     node = bsdf
     while node.get("type") != PLUGIN_NAME:

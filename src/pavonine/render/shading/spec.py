@@ -130,7 +130,7 @@ def load_bsdf(
     try:
         surface = spec.surface(binding, where, diag)
         if spec.is_feather:  # mask(bumpmap(pavonine_feather)): keep a handle on the feather
-            from pavonine.render.feather_bsdf import load_with_feathers
+            from pavonine.render.feather_encoding import load_with_feathers
 
             core, found = load_with_feathers(surface)
             if feathers is not None:
