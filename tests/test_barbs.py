@@ -206,8 +206,8 @@ def test_the_asset_switches_between_sheet_and_barbs(eye_asset):
     from pxr import Usd, UsdGeom, UsdShade
 
     from pavonine.pipeline.convert.barb_layer import BARB_ID, PRIMVARS
-    from pavonine.schemas.authoring import FEATHER_UV_PRIMVAR
     from pavonine.schemas.findings import validate_stage
+    from pavonine.schemas.primvars import FEATHER_UV_PRIMVAR
 
     stage = Usd.Stage.Open(str(eye_asset))
     prim = stage.GetDefaultPrim()

@@ -19,8 +19,9 @@ pytestmark = pytest.mark.convert
 
 from pavonine.apps.cli import cli
 from pavonine.base.map_files import read_map, sample_bilinear, write_map
+from pavonine.base.map_filters import prefilter
 from pavonine.pipeline.convert.atlas import st_overlap_fraction
-from pavonine.pipeline.convert.surface import FeatherFrame, prefilter
+from pavonine.pipeline.convert.surface import FeatherFrame
 from pavonine.pipeline.convert.topology import edge_report
 from pavonine.pipeline.convert.vane import triangle_areas
 from pavonine.pipeline.maps.paint import MAP_NAMES, generate_maps, write_maps

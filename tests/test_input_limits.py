@@ -217,8 +217,11 @@ def test_crescent_sigma_nan_in_usd_render_names_the_layer_and_attribute(tmp_path
     from pxr import Usd
 
     from pavonine.materials.parameters import ParameterError, preset
-    from pavonine.render.shading.feather import parameter_input_error
-    from pavonine.schemas.authoring import create_feather_material, read_feather_parameters
+    from pavonine.schemas.authoring import (
+        create_feather_material,
+        parameter_input_error,
+        read_feather_parameters,
+    )
 
     stage = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
     material = create_feather_material(stage, "/Feather", preset("paper-table1"), {})
@@ -246,8 +249,11 @@ def test_bad_arrays_and_types_in_a_sublayer_name_that_layer_and_the_attribute(
     from pxr import Sdf, Usd
 
     from pavonine.materials.parameters import ParameterError, preset
-    from pavonine.render.shading.feather import parameter_input_error
-    from pavonine.schemas.authoring import create_feather_material, read_feather_parameters
+    from pavonine.schemas.authoring import (
+        create_feather_material,
+        parameter_input_error,
+        read_feather_parameters,
+    )
 
     stage = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
     create_feather_material(stage, "/Feather", preset("paper-table1"), {})

@@ -3,7 +3,7 @@
 Both come from the same maps and recipe: ``convert`` bakes ``displacement_cm`` into the vane's
 points; the other conversion has ``displacement_cm = 0`` and its material carries
 ``pavonine:displacementHeight`` with the same height, which the renderer applies
-(render/displacement.py through pipeline/convert/surface.displacement_heights, the one formula).
+(render/displacement.py through base/map_filters.displacement_heights, the one formula).
 The streak heights must agree vertex for vertex, and the hero view must agree within noise, while
 the undisplaced feather does not.
 """

@@ -13,8 +13,6 @@ from typing import Any, TypeVar
 
 import click
 
-from pavonine.materials.parameters import ParameterError
-
 F = TypeVar("F", bound=Callable[..., Any])
 
 EXIT_BAD_INPUT = 2
@@ -26,6 +24,21 @@ def one_line(text: str) -> str:
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+class ParameterError(ValueError):
+    """A physically meaningless parameter; ``field`` names it (e.g. ``class[2].long.radius``).
+
+    ``kind`` classifies the problem (``NotFinite``, ``NotPositive``, ``TooFewLayers``,
+    ``TooManyLayers``, ``RodsOverlap``, ``Invalid``) for tools that report findings by name, such
+    as the USD validators.
+    """
+
+    def __init__(self, field_name: str, message: str, kind: str = "Invalid"):
+        super().__init__(f"{field_name}: {message}")
+        self.field = field_name
+        self.reason = message
+        self.kind = kind
 
 
 class InputError(Exception):

@@ -19,6 +19,7 @@ import OpenImageIO as oiio
 from scipy import ndimage
 
 from pavonine.base.errors import InputError
+from pavonine.base.image_files import write_image_file
 from pavonine.base.limits import image_error, odd_aspects, open_image
 
 #: Colour space written into every map (data, not colour).
@@ -85,7 +86,6 @@ def write_map(
         spec.attribute("ImageDescription", description)
     for key, value in (attributes or {}).items():
         spec.attribute(key, value)
-    from pavonine.render.imageio import write_image_file
 
     # A 2-D array is misread by the Python binding; pass (rows, columns, channels).
     write_image_file(path, np.ascontiguousarray(pixels[..., None]), spec)

@@ -33,9 +33,12 @@ full model (``pavonine render``); a single thin film cannot express them, so the
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
+
+from pavonine.materials.parameters import FeatherParameters
 
 MTLX_PATH = Path(__file__).resolve().parent / "pavonine_feather.mtlx"
 NODE = "pavonine_feather"
@@ -54,6 +57,10 @@ def class_input(k: int, axis: str, quantity: str) -> str:
     return f"class{k}_{axis}_{quantity}"
 
 
+#: The material's defaults, read from :class:`~pavonine.materials.parameters.FeatherParameters`
+#: (the one place they are written; the USD schema's fallbacks are generated from it too).
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(FeatherParameters)}
+
 #: Scalar nodedef inputs: name -> (MaterialX type, default, doc).
 SCALAR_INPUTS: dict[str, tuple[str, Any, str]] = {
     "ocellar": (
@@ -68,25 +75,57 @@ SCALAR_INPUTS: dict[str, tuple[str, Any, str]] = {
         0.0,
         "Angle map grey g: barbule long axis at g*180 degrees counter-clockwise from tangent.",
     ),
-    "melanin_index": ("float", 2.0, "Refractive index of the melanin rods (n_ml)."),
-    "medium_index": ("float", 1.0, "Refractive index between the rods (n_0)."),
-    "crescent_sigma": ("float", 15.0, "Normal spread across the barbule, degrees (Eq 6)."),
-    "block_sigma": ("float", 8.0, "Normal spread along the barbule, degrees."),
-    "rod_length": ("float", 5.0, "Rod length, um (full model only; unused by this graph)."),
+    "melanin_index": (
+        "float",
+        _DEFAULTS["melanin_index"],
+        "Refractive index of the melanin rods (n_ml).",
+    ),
+    "medium_index": (
+        "float",
+        _DEFAULTS["medium_index"],
+        "Refractive index between the rods (n_0).",
+    ),
+    "crescent_sigma": (
+        "float",
+        _DEFAULTS["crescent_sigma_deg"],
+        "Normal spread across the barbule, degrees (Eq 6).",
+    ),
+    "block_sigma": (
+        "float",
+        _DEFAULTS["block_sigma_deg"],
+        "Normal spread along the barbule, degrees.",
+    ),
+    "rod_length": (
+        "float",
+        _DEFAULTS["rod_length_um"],
+        "Rod length, um (full model only; unused by this graph).",
+    ),
     "interference": (
         "string",
-        "paper",
+        _DEFAULTS["interference"],
         "Rod-layer optics: paper | intensity | physical (full model only).",
     ),
-    "melanin_color": ("color3", (0.22, 0.12, 0.06), "Linear sRGB melanin-brown albedo."),
+    "melanin_color": ("color3", _DEFAULTS["melanin_color"], "Linear sRGB melanin-brown albedo."),
     "glitter": (
         "float",
-        0.0,
+        _DEFAULTS["glitter"],
         "0 = smooth average over barbule blocks, 1 = discrete blocks that glint (full model only).",
     ),
-    "glitter_seed": ("integer", 0, "Seed of the blocks' tilts (full model only)."),
-    "block_length": ("float", 25.0, "Block length along the barbule, um (full model only)."),
-    "barbule_width": ("float", 20.0, "Barbule spacing across its axis, um (full model only)."),
+    "glitter_seed": (
+        "integer",
+        _DEFAULTS["glitter_seed"],
+        "Seed of the blocks' tilts (full model only).",
+    ),
+    "block_length": (
+        "float",
+        _DEFAULTS["block_length_um"],
+        "Block length along the barbule, um (full model only).",
+    ),
+    "barbule_width": (
+        "float",
+        _DEFAULTS["barbule_width_um"],
+        "Barbule spacing across its axis, um (full model only).",
+    ),
     "structural": ("float", 1.0, "Share of structural colour, from the melanin map."),
     "opacity": ("float", 1.0, "Opacity, from the alpha map."),
 }

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from pavonine.base.errors import ParameterError
 from pavonine.materials.dispersion import KERATIN, MELANIN, Dispersion
 from pavonine.materials.lattice import LATTICES, GeometryError, RodLattice
 
@@ -19,21 +20,6 @@ INTERFERENCE_MODES = ("paper", "intensity", "physical")
 AXES = ("long", "short")
 #: Per-class arrays beyond Table 1's interval/radius/count (physical mode; 0 = none/touching).
 STRUCTURE_FIELDS = ("spacing", "channel")
-
-
-class ParameterError(ValueError):
-    """A physically meaningless parameter; ``field`` names it (e.g. ``class[2].long.radius``).
-
-    ``kind`` classifies the problem (``NotFinite``, ``NotPositive``, ``TooFewLayers``,
-    ``TooManyLayers``, ``RodsOverlap``, ``Invalid``) for tools that report findings by name, such
-    as the USD validators.
-    """
-
-    def __init__(self, field_name: str, message: str, kind: str = "Invalid"):
-        super().__init__(f"{field_name}: {message}")
-        self.field = field_name
-        self.reason = message
-        self.kind = kind
 
 
 #: Largest finite float32 (about 3.4e38): USD's ``float`` attributes hold nothing larger.

@@ -23,7 +23,7 @@ refines the surface first); once the cameras are known :func:`resolve` tessellat
    interpolated linearly over the grid.
 4. **Heights**: ``h = offset + scale · d(uv)`` with ``d`` the texture low-passed to the vertex
    spacing and read bilinearly with its wrap mode and uv transform:
-   :func:`pavonine.pipeline.convert.surface.displacement_heights`, the converter's own formula
+   :func:`pavonine.base.map_filters.displacement_heights`, the converter's own formula
    for the baked feather vane, so a feather displaced here and one baked by ``convert`` agree.
 5. **Move**: ``P' = P + h · n`` with ``n`` the object-space unit normal carried through the
    mesh's transform (``h`` is in object units, as UsdPreviewSurface specifies); normals are then
@@ -97,7 +97,7 @@ def from_texture(where: str, value, scale: float = 1.0, offset: float = 0.0, **k
 
 def heights(displacement: Displacement, texcoords: np.ndarray | None, faces: np.ndarray):
     """Per-vertex heights of a mesh (object units): the module docstring's step 4."""
-    from pavonine.pipeline.convert.surface import displacement_heights
+    from pavonine.base.map_filters import displacement_heights
 
     d = displacement
     if d.texels is None or texcoords is None:

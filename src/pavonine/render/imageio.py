@@ -22,7 +22,6 @@ whether an EXR and a PNG come from the same render; Pavonine's readers check it
 from __future__ import annotations
 
 import contextlib
-import errno
 import json
 import os
 import re
@@ -33,12 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from pavonine.base.errors import (
-    InputError,
-    atomic_path,
-    diagnose_write_failure,
-    scrub_temporaries,
-)
+from pavonine.base.errors import InputError
+from pavonine.base.image_files import write_image_file
 from pavonine.materials.display import DisplayTransform, current_display
 
 EXR_COLORSPACE = "lin_rec709_scene"
@@ -260,45 +255,3 @@ def _check_rgb(rgb: np.ndarray) -> np.ndarray:
 
 def _write(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
     write_image_file(path, pixels, spec)
-
-
-def write_image_file(path: str | os.PathLike, pixels: np.ndarray, spec) -> None:
-    """Write ``pixels`` (H×W×C) with OpenImageIO ``spec`` to ``path`` atomically.
-
-    OpenImageIO reports some failures only when the file is closed (OpenEXR writes its chunks
-    then), so ``close()`` is checked too: a full disk or a file-size limit never commits a
-    truncated image. Its errors name ``path`` and, where OpenImageIO does not, the cause
-    (:func:`pavonine.base.errors.diagnose_write_failure`).
-    """
-    import OpenImageIO as oiio
-
-    with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(os.fspath(tmp))
-        if out is None:
-            raise InputError(os.fspath(path), f"cannot write this image format: {oiio.geterror()}")
-        written = out.open(os.fspath(tmp), spec) and out.write_image(pixels)
-        error = out.geterror()
-        closed = out.close()
-        if not (written and closed):
-            message = error or out.geterror() or "the image library gave no reason"
-            reason = diagnose_write_failure(tmp) or scrub_temporaries(message, path)
-            raise InputError(os.fspath(path), f"cannot write image: {reason}")
-        reason = _silently_truncated(tmp)
-        if reason is not None:
-            raise InputError(os.fspath(path), f"cannot write image: {reason}")
-
-
-def _silently_truncated(path: Path) -> str | None:
-    """Why a file OpenImageIO reported as written is incomplete, or ``None``.
-
-    Neither libpng nor OpenEXR reports a short write: a file that reached the file-size limit
-    is refused here by its size, and every image is read back from its own structure before it
-    is committed (:func:`pavonine.base.truncation.cut_short`, run by ``atomic_path``), so a
-    full disk never commits a cut-short PNG or EXR.
-    """
-    import resource
-
-    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-    if limit != resource.RLIM_INFINITY and path.stat().st_size >= limit:
-        return os.strerror(errno.EFBIG)
-    return None

@@ -17,10 +17,13 @@ from dataclasses import dataclass
 
 from pxr import Gf, Sdf, Usd, UsdShade
 
+from pavonine.base.errors import InputError
 from pavonine.materials import materialx
 from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import AXES, FeatherParameters, ParameterError
+from pavonine.schemas.mtlx_types import SDF_TYPES, usd_value
 from pavonine.schemas.plugin import SCHEMA_NAME, require_schema
+from pavonine.schemas.primvars import FEATHER_UV_PRIMVAR
 
 #: Map keys (as used by the converter and ``resolve_maps``) -> schema attribute.
 MAP_ATTRS: dict[str, str] = {
@@ -91,10 +94,6 @@ UNIFORM_ATTRS = ("pavonine:interference", "pavonine:rodLattice")
 MTLX_SHADER = "FeatherMtlx"
 PREVIEW_SHADER = "PreviewSurface"
 ALPHA_TEXTURE = "AlphaTexture"
-# The six maps live in feather space: meshes carry it as this primvar (the atlas `st` is for baking).
-# Names are valid identifiers: hosts paste MaterialX geomprop names into shader code.
-FEATHER_UV_PRIMVAR = "pavonine_featherUV"
-BARB_TANGENT_PRIMVAR = "pavonine_barbTangent"
 TEXCOORD_READER = "TexCoordReader"
 MTLX_RENDER_CONTEXT = "mtlx"
 #: customData key on a feather material recording what its baked textures were made from.
@@ -291,6 +290,17 @@ def attribute_of_field(field: str) -> str:
     return CLASS_ATTRS[(axis, quantity if quantity in ("interval", "count") else "radius")][0]
 
 
+def parameter_input_error(prim: Usd.Prim, exc: ParameterError) -> InputError:
+    """``exc`` as an :class:`InputError` naming the layer that authors the attribute at fault
+    and ``<prim>.<attribute>`` (``crescent_sigma_deg: is NaN`` alone names neither)."""
+    name = attribute_of_field(exc.field)
+    attr = prim.GetAttribute(name)
+    stack = attr.GetPropertyStack() if attr else []
+    layer = stack[0].layer if stack else prim.GetStage().GetRootLayer()
+    where = layer.realPath or layer.identifier
+    return InputError(f"{where}: {prim.GetPath()}.{name}", exc.reason)
+
+
 def resolve_maps(material: Usd.Prim | UsdShade.Material) -> dict[str, str | None]:
     """Absolute resolved file paths of the six maps; ``None`` where not authored (= uniform).
 
@@ -451,25 +461,11 @@ def _author_preview(material: UsdShade.Material, values: DerivedValues) -> None:
     material.CreateSurfaceOutput().ConnectToSource(preview_out)
 
 
-_MTLX_USD_TYPES = {
-    "vector2": Sdf.ValueTypeNames.Float2,
-    "float": Sdf.ValueTypeNames.Float,
-    "integer": Sdf.ValueTypeNames.Int,
-    "string": Sdf.ValueTypeNames.String,
-    "color3": Sdf.ValueTypeNames.Color3f,
-}
-
-
 def mtlx_usd_value(name: str, value: object) -> object:
     """The USD value a MaterialX nodedef input is authored with."""
-    mtype = materialx.input_type(name)
-    if mtype == "vector2":
-        return Gf.Vec2f(*value)
-    if mtype == "color3":
-        return Gf.Vec3f(*value)
-    return value
+    return usd_value(materialx.input_type(name), value)
 
 
 def _set_mtlx_input(shader: UsdShade.Shader, name: str, value: object) -> None:
-    vtype = _MTLX_USD_TYPES[materialx.input_type(name)]
+    vtype = SDF_TYPES[materialx.input_type(name)]
     shader.CreateInput(name, vtype).Set(mtlx_usd_value(name, value))

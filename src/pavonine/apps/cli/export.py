@@ -14,8 +14,8 @@ from pavonine.apps.cli.options import (
     say,
 )
 from pavonine.apps.cli.values import FiniteFloat, max_pixels_option
-from pavonine.apps.view.viewpoint import FRAMING_RADII
 from pavonine.base.errors import one_line_errors
+from pavonine.pipeline.export.framing import FRAMING_RADII
 
 JSON_SCHEMA = {
     "type": "object",

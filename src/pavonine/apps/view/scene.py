@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pavonine.apps.view.viewpoint import framing, stage_bound
 from pavonine.base.errors import InputError
+from pavonine.pipeline.export.framing import framing, stage_bound
 
 #: Variant sets the page offers (the asset's level of detail; barbs or sheet).
 VIEW_VARIANT_SETS = ("lod", "geometry")
@@ -253,8 +253,8 @@ class _Materials:
 
     def _feather(self, material) -> dict:
         from pavonine.materials.parameters import ParameterError
-        from pavonine.render.shading.feather import parameter_input_error
         from pavonine.schemas import authoring
+        from pavonine.schemas.authoring import parameter_input_error
 
         try:
             params = authoring.read_feather_parameters(material).validate()

@@ -20,32 +20,6 @@ from pavonine.base.errors import InputError
 VIEW_VECTORS = {"eye": 3, "target": 3, "up": 3, "sun": 3, "irradiance": 3, "sky": 3}
 
 
-#: How far in front of its centre (bounding radii, along +Z) the page puts its eye when the stage
-#: has no camera (with a 39.6° vertical field of view): also the viewer ``pavonine export`` fits
-#: its look for by default.
-FRAMING_RADII = 2.6
-
-
-def stage_bound(stage) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo, hi)``: the world-space bound of the stage's default- and render-purpose geometry,
-    the box the page frames."""
-    from pxr import Usd, UsdGeom
-
-    purposes = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render]
-    bbox = UsdGeom.BBoxCache(Usd.TimeCode.Default(), purposes)
-    box = bbox.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
-    return np.array(box.GetMin(), dtype=np.float64), np.array(box.GetMax(), dtype=np.float64)
-
-
-def framing(lo, hi) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(eye, centre, radius)`` for a bound ``[lo, hi]`` (world space): its centre, its radius
-    (half its diagonal) and the default eye, :data:`FRAMING_RADII` radii in front (+Z) of the
-    centre, looking at it."""
-    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-    centre, radius = (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-3)
-    return centre + np.array([0.0, 0.0, FRAMING_RADII * radius]), centre, radius
-
-
 def _unit(v) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     n = np.linalg.norm(v)

@@ -288,8 +288,8 @@ def feather_inputs(material) -> tuple[object, dict, dict]:
     from pavonine.base.asset_io import local_file
     from pavonine.base.map_files import check_aspects, read_data_map
     from pavonine.materials.parameters import ParameterError
-    from pavonine.render.shading.feather import parameter_input_error
     from pavonine.schemas import authoring
+    from pavonine.schemas.authoring import parameter_input_error
 
     try:
         params = authoring.read_feather_parameters(material).validate()

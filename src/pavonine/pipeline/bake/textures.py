@@ -20,13 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pavonine.base.image_files import write_image_file
 from pavonine.base.map_files import write_map
 from pavonine.materials import colour
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.bake.appearance import texel_appearance
 from pavonine.pipeline.bake.texels import dilate, nearest_covered, scatter, surface_texels
 from pavonine.pipeline.convert.mesh import MeshData
-from pavonine.render.imageio import write_image_file
 
 TEXTURE_FOLDER = "textures"
 #: Texture key → file name inside ``textures/``.

@@ -44,7 +44,7 @@ from pavonine.base.map_files import DataMap, write_map
 from pavonine.base.truncation import save_whole
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.convert.mesh import MeshData
-from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
+from pavonine.schemas.primvars import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
 
 LODS = ("high", "medium", "low")
 #: The ``geometry`` variant set: the painted sheet (default) or every barb as a ribbon.

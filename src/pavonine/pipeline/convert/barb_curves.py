@@ -42,11 +42,12 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from pavonine.base.map_files import sample_bilinear, sample_nearest
+from pavonine.base.map_filters import gaussian_blur
 from pavonine.materials.ocellus import smooth_class_field
 from pavonine.pipeline.convert.barbs import sample_direction
 from pavonine.pipeline.convert.rachis import RachisSpec, rachis_radius
 from pavonine.pipeline.convert.recipe import BarbOptions
-from pavonine.pipeline.convert.surface import FeatherFrame, gaussian_blur, normalise
+from pavonine.pipeline.convert.surface import FeatherFrame, normalise
 from pavonine.pipeline.maps.paint import angle_degrees, ocellar_class
 
 #: Alpha coverage at which a barb ends (the silhouette).

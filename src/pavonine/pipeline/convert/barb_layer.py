@@ -21,19 +21,19 @@ import numpy as np
 from pavonine.base.truncation import save_whole
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.convert.barb_curves import BarbCurves
-from pavonine.schemas.authoring import FEATHER_UV_PRIMVAR
+from pavonine.schemas.primvars import BARB_ID_PRIMVAR, FEATHER_UV_PRIMVAR, INPUT_PRIMVARS
 
 BARBS = "Barbs"
 #: Preview material of the barbs (preview-purpose binding): their baked ``displayColor``.
 BARBS_PREVIEW = "FeatherBarbsPreview"
 #: Vertex primvars sampled along each barb: primvar name → :class:`BarbCurves` field.
 PRIMVARS = {
-    "pavonine_ocellarClass": "ocellar_class",
-    "pavonine_gradation": "gradation",
-    "pavonine_melanin": "melanin",
-    "pavonine_barbuleAngle": "barbule_angle_deg",
+    INPUT_PRIMVARS["ocellar"]: "ocellar_class",
+    INPUT_PRIMVARS["gradation"]: "gradation",
+    INPUT_PRIMVARS["melanin"]: "melanin",
+    INPUT_PRIMVARS["angle"]: "barbule_angle_deg",
 }
-BARB_ID = "pavonine_barbId"
+BARB_ID = BARB_ID_PRIMVAR
 #: GGX roughness of the barbs' preview surface: the crescent spread is in the bake's colour.
 PREVIEW_ROUGHNESS = 0.45
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pavonine.base.map_filters import displacement_heights
 from pavonine.pipeline.convert.atlas import (
     AtlasedMesh,
     build_atlas,
@@ -42,12 +43,7 @@ from pavonine.pipeline.convert.collapse import collapse_to
 from pavonine.pipeline.convert.meshing import meshing_backend
 from pavonine.pipeline.convert.rachis import RachisSpec, base_rachis, rachis_positions
 from pavonine.pipeline.convert.refinement import RefinedMesh, refine, subdivision_for
-from pavonine.pipeline.convert.surface import (
-    FeatherFrame,
-    displacement_heights,
-    normalise,
-    vertex_normals,
-)
+from pavonine.pipeline.convert.surface import FeatherFrame, normalise, vertex_normals
 from pavonine.pipeline.convert.topology import edge_report
 from pavonine.pipeline.convert.vane import base_vane, triangle_areas
 

@@ -376,7 +376,7 @@ def fit_viewer(stage, eye=None) -> tuple[np.ndarray, np.ndarray]:
     """The eye the feather's look is fitted for (``eye``, else where ``pavonine view`` frames the
     stage) and the centre of the stage's bound it turns about (world space and units); an eye
     inside that bound is refused."""
-    from pavonine.apps.view.viewpoint import framing, stage_bound
+    from pavonine.pipeline.export.framing import framing, stage_bound
 
     lo, hi = stage_bound(stage)
     framed, centre, _ = framing(lo, hi)

@@ -34,7 +34,8 @@ from pavonine.base.errors import atomic_path
 from pavonine.base.truncation import refuse_size_other_than
 from pavonine.materials import materialx
 from pavonine.materials.parameters import FeatherParameters
-from pavonine.schemas.authoring import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR, MTLX_SHADER
+from pavonine.schemas.authoring import MTLX_SHADER
+from pavonine.schemas.primvars import BARB_TANGENT_PRIMVAR, FEATHER_UV_PRIMVAR
 
 FEATHER_MATERIAL = "Feather"
 PORTABLE_MATERIAL = "FeatherPortable"

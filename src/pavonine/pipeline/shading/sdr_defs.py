@@ -35,10 +35,10 @@ from pathlib import Path
 
 from pxr import Sdf, Usd, UsdShade
 
-from pavonine.pipeline.shading.usd import SDF_TYPES
+from pavonine.schemas.mtlx_types import SDF_TYPES
 from pavonine.schemas.plugin import SHADER_DEFS_DIR, SHADER_DEFS_EXTENSION
 
-#: MaterialX type → USD value type beyond :data:`~pavonine.pipeline.shading.usd.SDF_TYPES`, as
+#: MaterialX type → USD value type beyond :data:`~pavonine.schemas.mtlx_types.SDF_TYPES`, as
 #: ``usdMtlx`` maps them; any other type (closures, shaders) becomes ``token``.
 _MORE_TYPES = {
     "matrix33": Sdf.ValueTypeNames.Matrix3d,

@@ -17,28 +17,12 @@ baked UsdPreviewSurface (``outputs:surface``) and the material bindings.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 from pxr import Gf, Sdf, Usd, UsdShade
 
 from pavonine.pipeline.bake.textures import FILES
 from pavonine.schemas.authoring import ALPHA_TEXTURE, PREVIEW_SHADER, TEXCOORD_READER
-
-#: MaterialX type → USD value type of an input.
-SDF_TYPES = {
-    "float": Sdf.ValueTypeNames.Float,
-    "integer": Sdf.ValueTypeNames.Int,
-    "boolean": Sdf.ValueTypeNames.Bool,
-    "string": Sdf.ValueTypeNames.String,
-    "filename": Sdf.ValueTypeNames.Asset,
-    "color3": Sdf.ValueTypeNames.Color3f,
-    "color4": Sdf.ValueTypeNames.Color4f,
-    "vector2": Sdf.ValueTypeNames.Float2,
-    "vector3": Sdf.ValueTypeNames.Float3,
-    "vector4": Sdf.ValueTypeNames.Float4,
-}
-_GF = {"color3": Gf.Vec3f, "vector3": Gf.Vec3f, "vector2": Gf.Vec2f, "color4": Gf.Vec4f}
-_GF["vector4"] = Gf.Vec4f
+from pavonine.schemas.mtlx_types import SDF_TYPES, mtlx_input_value
 
 ST_READER = "StReader"
 BAKED_COLOR = "BakedColor"
@@ -48,19 +32,6 @@ UNBAKED_PREVIEW = (TEXCOORD_READER, ALPHA_TEXTURE)
 ST_PRIMVAR = "st"
 #: Opacity below which the preview cuts the vane away (glTF's default ``alphaCutoff``).
 OPACITY_THRESHOLD = 0.5
-
-
-def mtlx_input_value(inp) -> Any:
-    """The USD value of a MaterialX input ``inp`` (a ``filename`` as a relative
-    ``Sdf.AssetPath``, vectors and colours as their ``Gf`` types, the rest as it is)."""
-    value = inp.getValue()
-    kind = inp.getType()
-    if kind == "filename":
-        path = str(value)
-        return Sdf.AssetPath(path if path.startswith(("./", "../", "/")) else f"./{path}")
-    if kind in _GF:
-        return _GF[kind](*[float(v) for v in value])
-    return value
 
 
 def author_mtlx_network(stage: Usd.Stage, path: Sdf.Path | str, doc, material_name: str):

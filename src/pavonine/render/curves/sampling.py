@@ -27,10 +27,11 @@ from pavonine.render.curves.bases import (
 from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.mesh import BARB_COORDINATE, Surface, make_topology
 from pavonine.render.primvars import Primvar, read_primvars
+from pavonine.schemas.primvars import BARB_ID_PRIMVAR, BARB_TANGENT_PRIMVAR
 
 STEPS = 4  # spans per cubic segment
-BARB_TANGENT = "pavonine_barbTangent"  # the feather BSDF's barb direction (shading.feather)
-BARB_ID = "pavonine_barbId"  # uniform: the barb's id (docs/render.md, "Ribbons")
+BARB_TANGENT = BARB_TANGENT_PRIMVAR  # the feather BSDF's barb direction (shading.feather)
+BARB_ID = BARB_ID_PRIMVAR  # uniform: the barb's id (docs/render.md, "Ribbons")
 WIDTHS = "widths"
 INTERPOLATIONS = ("constant", "uniform", "vertex", "varying", "faceVarying")
 _WHAT = {"uniform": "curves", "vertex": "points"}

@@ -31,21 +31,18 @@ from pavonine.render.diagnostics import Diagnostics
 from pavonine.render.shading.network import FLOAT, Affine, Network
 from pavonine.render.shading.primvars import placeholder
 from pavonine.render.shading.spec import MaterialSpec
+from pavonine.schemas.authoring import parameter_input_error
+from pavonine.schemas.plugin import SCHEMA_NAME
+from pavonine.schemas.primvars import (
+    BARB_TANGENT_PRIMVAR,
+    FEATHER_UV_PRIMVAR,
+    INPUT_PRIMVARS,
+    LEGACY_PRIMVARS,
+)
 
-FEATHER_API = "PavonineFeatherAPI"
-FEATHER_UV = "pavonine_featherUV"
-BARB_TANGENT = "pavonine_barbTangent"
-#: Names the converter gave these primvars before they had to be valid shading-language
-#: identifiers (MaterialX ``geompropvalue``); meshes that carry only these are read through them.
-LEGACY_PRIMVARS = {FEATHER_UV: "pavonine:featherUV", BARB_TANGENT: "pavonine:barbTangent"}
-#: The data maps' primvar twins (BSDF input → primvar; units: class index, gradation t,
-#: structural share w, barbule angle in degrees): docs/render.md, "Ribbons".
-INPUT_PRIMVARS = {
-    "ocellar": "pavonine_ocellarClass",
-    "gradation": "pavonine_gradation",
-    "melanin": "pavonine_melanin",
-    "angle": "pavonine_barbuleAngle",
-}
+FEATHER_API = SCHEMA_NAME
+FEATHER_UV = FEATHER_UV_PRIMVAR
+BARB_TANGENT = BARB_TANGENT_PRIMVAR
 #: Environment variable: ``1`` renders feather materials through their UsdPreviewSurface, as a
 #: viewer that knows nothing of Pavonine would (used to compare the baked preview with the
 #: spectral feather).
@@ -64,19 +61,6 @@ def is_feather_material(material: UsdShade.Material) -> bool:
 def renders_as_feather(material: UsdShade.Material) -> bool:
     """A feather material rendered spectrally (not with :data:`IGNORE_FEATHER_SCHEMA` set)."""
     return is_feather_material(material) and os.environ.get(IGNORE_FEATHER_SCHEMA) != "1"
-
-
-def parameter_input_error(prim: Usd.Prim, exc: ParameterError) -> InputError:
-    """``exc`` as an :class:`InputError` naming the layer that authors the attribute at fault
-    and ``<prim>.<attribute>`` (``crescent_sigma_deg: is NaN`` alone names neither)."""
-    from pavonine.schemas import authoring
-
-    name = authoring.attribute_of_field(exc.field)
-    attr = prim.GetAttribute(name)
-    stack = attr.GetPropertyStack() if attr else []
-    layer = stack[0].layer if stack else prim.GetStage().GetRootLayer()
-    where = layer.realPath or layer.identifier
-    return InputError(f"{where}: {prim.GetPath()}.{name}", exc.reason)
 
 
 def feather_material(material: UsdShade.Material, time, diag: Diagnostics) -> MaterialSpec:

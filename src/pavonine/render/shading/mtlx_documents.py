@@ -20,6 +20,7 @@ from pathlib import Path
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.schemas.mtlx_types import SDF_TYPES, mtlx_input_value
 
 ROOT = "/MaterialX/Materials"  # where usdMtlx puts a document's materials
 _LAYERS: dict[tuple[str, float], Sdf.Layer] = {}  # kept alive: references name them by identifier
@@ -27,8 +28,6 @@ _LAYERS: dict[tuple[str, float], Sdf.Layer] = {}  # kept alive: references name 
 
 def translate(doc, stage: Usd.Stage, material_name: str, root: str = "/Looks") -> UsdShade.Material:
     """The UsdShade Material for ``doc``'s ``surfacematerial`` ``material_name`` (see module doc)."""
-    from pavonine.pipeline.shading.usd import SDF_TYPES, mtlx_input_value
-
     material = UsdShade.Material.Define(stage, f"{root}/{prim_name(material_name)}")
     outputs: dict[tuple[str, str, str], UsdShade.Output] = {}
     graphs: dict[str, UsdShade.NodeGraph] = {}
