@@ -31,14 +31,20 @@ from pavonine.render import displacement, instance_primvars, lights, sensors
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
-from pavonine.render.integrator_settings import DEFAULT_SPP, MAX_DEPTH_LIMIT, check_variant
-from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
+from pavonine.render.integrator_settings import DEFAULT_SPP, check_variant
+from pavonine.render.limits import RenderLimits
+from pavonine.render.options import RenderOptions, check_spp
 from pavonine.render.passes import render_passes
 from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
 
-__all__ = ["RenderResult", "render_products", "render_stage", "write_exr", "write_png"]
-#: the view of a stage without a camera (see :func:`render_products`)
-FRAMINGS = ("usd", "portrait")
+__all__ = [
+    "RenderOptions",
+    "RenderResult",
+    "render_products",
+    "render_stage",
+    "write_exr",
+    "write_png",
+]
 
 
 @dataclass
@@ -74,35 +80,32 @@ class _Job:
 
 
 def render_stage(
-    stage_path: str | os.PathLike, *, product: str | None = None, **options: Any
+    stage_path: str | os.PathLike,
+    options: RenderOptions | None = None,
+    /,
+    *,
+    product: str | None = None,
+    **changes: Any,
 ) -> RenderResult:
     """Render one product of ``stage_path``: the first, or the ``RenderProduct`` at ``product``.
 
-    ``options`` are :func:`render_products`' (``spp``, ``max_depth``, ``resolution``, ``seed``,
-    ``camera``, ``framing``, ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
+    ``options`` (:class:`~pavonine.render.options.RenderOptions`), with ``changes`` to its fields
+    as keywords (``spp``, ``max_depth``, ``resolution``, ``seed``, ``camera``, ``framing``,
+    ``time``, ``variant``, ``moments``, ``progress``, ``limits``).
     """
     chosen = [product] if product else None
-    return render_products(stage_path, products=chosen, first_only=product is None, **options)[0]
+    options = (options or RenderOptions()).but(
+        **changes, products=chosen, first_only=product is None
+    )
+    return render_products(stage_path, options)[0]
 
 
 def render_products(
-    stage_path: str | os.PathLike,
-    *,
-    spp: int | None = None,
-    max_depth: int | None = None,
-    resolution: tuple[int, int] | None = None,
-    seed: int = 0,
-    camera: str | None = None,
-    framing: str = "usd",
-    time: float | None = None,
-    variant: str | None = None,
-    moments: bool = False,
-    progress: bool = True,
-    products: list[str] | None = None,
-    first_only: bool = False,
-    limits: RenderLimits = DEFAULT_LIMITS,
+    stage_path: str | os.PathLike, options: RenderOptions | None = None, /, **changes: Any
 ) -> list[RenderResult]:
-    """Render every product of the stage's render settings (or the ones at ``products``).
+    """Render every product of the stage's render settings (or the ones ``options.products``
+    names), as ``options`` (:class:`~pavonine.render.options.RenderOptions`, with ``changes`` to
+    its fields as keywords) asks.
 
     ``resolution`` and ``camera`` override every product's; a stage without settings renders one
     beauty image. A stage without a camera is seen through USD's default view (``framing="usd"``:
@@ -114,18 +117,17 @@ def render_products(
     instance counts as instancers are met. An image with NaN or infinite pixels is an
     :class:`InputError`, never a result.
     """
-    if spp is not None:
-        _check_spp(spp, moments, limits)
-    if max_depth is not None and not -1 <= max_depth <= MAX_DEPTH_LIMIT:
-        raise InputError(
-            "max_depth", f"must be -1 (no limit) or 0 to {MAX_DEPTH_LIMIT:,}, got {max_depth}"
-        )
-    if framing not in FRAMINGS:
-        raise InputError("framing", f"must be one of {', '.join(FRAMINGS)}, got {framing!r}")
-    if resolution is not None:
-        if len(resolution) != 2:
-            raise InputError("resolution", f"must be two positive integers, got {resolution}")
-        limits.check_resolution(resolution, "resolution")
+    options = (options or RenderOptions()).but(**changes)
+    options.check()
+    spp, max_depth, resolution, seed = (
+        options.spp,
+        options.max_depth,
+        options.resolution,
+        options.seed,
+    )
+    camera, framing, time, variant = options.camera, options.framing, options.time, options.variant
+    moments, progress, limits = options.moments, options.progress, options.limits
+    products, first_only = options.products, options.first_only
     backend = _select(variant)
     import drjit as dr
     import mitsuba as mi
@@ -139,7 +141,7 @@ def render_products(
         check_variant(stage.GetPrimAtPath(settings.path), backend.variant, diag)
     if spp is None:
         spp = settings.sample_count or DEFAULT_SPP
-        _check_spp(spp, moments, limits, settings.sample_count_field or "spp")
+        check_spp(spp, moments, limits, settings.sample_count_field or "spp")
     chosen = choose_products(settings.products, products, first_only)
     for product in chosen:
         check_product_size(product, resolution, settings.path, limits)
@@ -258,12 +260,6 @@ def render_products(
         result.metadata["seconds"] = seconds
         result.warnings = list(diag.messages)
     return results
-
-
-def _check_spp(spp: int, moments: bool, limits: RenderLimits, where: str = "spp") -> None:
-    limits.check_spp(spp, where)
-    if moments and spp < 2:
-        raise InputError(where, "moments need at least 2 samples per pixel")
 
 
 def choose_products(

@@ -3,7 +3,9 @@
 Structure after hdmitsuba's per-prim translators (``mesh``, ``instancing``, ``camera``,
 ``lights``, ``materials``), without Hydra: ``StageDelegate.sync()`` returns everything Mitsuba
 needs (shapes, shape groups, instances, emitters, cameras, world bounds). Invisible prims and
-``guide``/``proxy`` purposes are skipped; unsupported prim types give one warning each.
+``guide``/``proxy`` purposes are skipped; unsupported prim types give one warning each. Which
+translator a prim goes to is decided in one place, :mod:`.prim_kinds`, for the stage and for
+instance prototypes alike.
 """
 
 from __future__ import annotations
@@ -27,6 +29,9 @@ from pavonine.render import (
     skel,
     subdivision,
 )
+from pavonine.render import (
+    prim_kinds as kinds,
+)
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.integrator_settings import warn_unread
 from pavonine.render.limits import (
@@ -37,24 +42,6 @@ from pavonine.render.limits import (
 )
 from pavonine.render.progress import SyncProgress
 from pavonine.render.xform import TransformCache, transform_source, usable_transform
-
-# prims that carry no geometry of their own (their children are still visited)
-STRUCTURAL = {
-    "",
-    "Xform",
-    "Scope",
-    "SkelRoot",
-    "GeomSubset",
-    "RenderVar",
-    "RenderPass",
-    "Shader",
-    "Backdrop",
-    "Skeleton",  # UsdSkel: deforms the prims bound to it (render/skel.py)
-    "SkelAnimation",
-    "BlendShape",
-}
-# prims whose children are not geometry either (shading networks, render settings)
-PRUNED = {"Material", "NodeGraph", "RenderSettings", "RenderProduct"}
 
 
 @dataclass
@@ -152,10 +139,10 @@ class StageDelegate:
             if not self._visible(prim):
                 it.PruneChildren()
                 continue
-            kind = prim.GetTypeName()
+            kind = kinds.prim_kind(prim)
             warn_unread(prim, self.diag)
-            geometric = prim.IsInstance() or kind in ("Mesh", "BasisCurves", "PointInstancer")
-            if (geometric or shapes.is_implicit(prim)) and self._world(prim) is None:
+            geometric = prim.IsInstance() or kind in kinds.GEOMETRIC
+            if geometric and self._world(prim) is None:
                 it.PruneChildren()
                 continue
             if prim.IsInstance():
@@ -163,36 +150,10 @@ class StageDelegate:
                     prim, self.xforms.world(prim), self.table, self._subtree, self.time
                 )
                 it.PruneChildren()
-            elif kind == "Mesh" or shapes.is_implicit(prim):
-                world = self.skinning.transforms.get(str(prim.GetPath()))
-                world = self.xforms.world(prim) if world is None else world
-                built, boxes = self._gprim(prim, world, world=True)
-                for i, shape in enumerate(built):
-                    self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
-                self._bounds.extend(boxes)
-            elif kind == "BasisCurves":
-                built, boxes = self._curves(prim, self.xforms.world(prim), world=True)
-                for i, shape in enumerate(built):
-                    self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
-                self._bounds.extend(boxes)
-            elif kind == "PointInstancer":
-                instancing.point_instancer(
-                    prim, self.xforms.world(prim), self.time, self.table, self._subtree, self.diag
-                )
-                it.PruneChildren()
-            elif kind == "Camera":
-                self.scene.cameras[str(prim.GetPath())] = prim
-            elif lights.is_light(prim):
+            elif kind == kinds.LIGHT:
                 light_prims.append(prim)
-            elif kind in PRUNED:
+            elif self._sync_prim(prim, kind):
                 it.PruneChildren()
-            elif kind in STRUCTURAL:
-                continue
-            else:
-                self.diag.warn(
-                    str(prim.GetPath()),
-                    f"{kind} prims are not supported by the Mitsuba delegate; skipped",
-                )
         self.scene.shapes.update(self.table.groups)
         self.scene.shapes.update(self.table.instances)
         self.scene.instance_count = len(self.table.instances)
@@ -215,6 +176,32 @@ class StageDelegate:
                 self.scene.dark_lights += 1
         self.scene.feather_materials = sum(m.is_feather for m in self._materials.values())
         return self.scene
+
+    def _sync_prim(self, prim: Usd.Prim, kind: str) -> bool:
+        """Translate one prim of the stage by its kind (lights wait for the world bounds);
+        True when its children are not to be visited."""
+        if kind in (kinds.GPRIM, kinds.CURVES):
+            if kind == kinds.GPRIM:
+                world = self.skinning.transforms.get(str(prim.GetPath()))
+                world = self.xforms.world(prim) if world is None else world
+                built, boxes = self._gprim(prim, world, world=True)
+            else:
+                built, boxes = self._curves(prim, self.xforms.world(prim), world=True)
+            for i, shape in enumerate(built):
+                self.scene.shapes[f"{prim.GetPath()}#{i}"] = shape
+            self._bounds.extend(boxes)
+            return False
+        if kind == kinds.INSTANCER:
+            instancing.point_instancer(
+                prim, self.xforms.world(prim), self.time, self.table, self._subtree, self.diag
+            )
+            return True
+        if kind == kinds.CAMERA:
+            self.scene.cameras[str(prim.GetPath())] = prim
+            return False
+        if kind == kinds.UNSUPPORTED:
+            _warn_unsupported(prim, self.diag)
+        return kind == kinds.PRUNED
 
     def bounding_sphere(self) -> tuple[np.ndarray, float]:
         """Centre and radius of the world bounds (unit sphere at the origin for an empty scene)."""
@@ -426,32 +413,29 @@ class StageDelegate:
             if not self._visible(prim):
                 it.PruneChildren()
                 continue
-            kind = prim.GetTypeName()
+            kind = kinds.prim_kind(prim)
             warn_unread(prim, self.diag)
-            if kind == "Mesh" or shapes.is_implicit(prim) or kind == "BasisCurves":
+            if kind in (kinds.GPRIM, kinds.CURVES):
                 matrix = self._usable(
                     prim,
                     np.eye(4) if prim == relative_to else self.xforms.relative(prim, relative_to),
                 )
                 if matrix is None:
                     continue
-                translate = self._curves if kind == "BasisCurves" else self._gprim_in_prototype
+                translate = self._curves if kind == kinds.CURVES else self._gprim_in_prototype
                 prim_shapes, prim_boxes = translate(prim, matrix)
                 meshes.extend(prim_shapes)
                 boxes.extend(prim_boxes)
-            elif kind == "PointInstancer":
+            elif kind == kinds.INSTANCER:
                 self.diag.warn(
                     str(prim.GetPath()),
                     "PointInstancer inside a prototype (nested instancing) is not supported; skipped",
                 )
                 it.PruneChildren()
-            elif kind in PRUNED:
+            elif kind == kinds.PRUNED:
                 it.PruneChildren()
-            elif kind not in STRUCTURAL and kind != "Camera" and not lights.is_light(prim):
-                self.diag.warn(
-                    str(prim.GetPath()),
-                    f"{kind} prims are not supported by the Mitsuba delegate; skipped",
-                )
+            elif kind == kinds.UNSUPPORTED:
+                _warn_unsupported(prim, self.diag)
         bounds = (
             (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
             if boxes
@@ -480,6 +464,13 @@ class StageDelegate:
                 spec, double_sided, binding, spec.key, self.diag, feathers=self.feather_bsdfs
             )
         return self._bsdfs[key]
+
+
+def _warn_unsupported(prim: Usd.Prim, diag: Diagnostics) -> None:
+    diag.warn(
+        str(prim.GetPath()),
+        f"{prim.GetTypeName()} prims are not supported by the Mitsuba delegate; skipped",
+    )
 
 
 def usd_error_message(exc: object) -> str:

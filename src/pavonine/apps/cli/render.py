@@ -35,6 +35,7 @@ from pavonine.apps.farm.options import farm_options
 from pavonine.base.errors import InputError, one_line_errors
 from pavonine.render.integrator_settings import DEFAULT_SPP, MAX_DEPTH_LIMIT
 from pavonine.render.limits import RenderLimits
+from pavonine.render.options import RenderOptions
 
 _PATH_OR_NULL = {"type": ["string", "null"]}
 
@@ -268,10 +269,11 @@ def render(
             jobs = [replace(jobs[0], png=png_out)]
         for path in (p for job in jobs for p in _files(job)):
             check_writable(path)
-        report = _render_here(
-            stage, views, jobs, spp=spp, size=size, time=time_, seed=seed, variant=variant,
-            variance=variance, display=display, limits=limits, max_depth=max_depth,
+        options = RenderOptions(
+            spp=spp, max_depth=max_depth, resolution=size, seed=seed, time=time_,
+            variant=variant, moments=variance, progress=show_progress(), limits=limits,
         )  # fmt: skip
+        report = _render_here(stage, views, jobs, options, display)
     images = report["images"]
     emit_json(
         json_target,
@@ -317,21 +319,10 @@ def _show_with_warnings() -> Callable[[dict[str, Any]], None]:
 
 
 def _render_here(
-    stage: Path,
-    views: list[View],
-    jobs: list[RenderJob],
-    *,
-    spp: int,
-    size: tuple[int, int] | None,
-    time: float | None,
-    seed: int,
-    variant: str | None,
-    variance: bool,
-    display,
-    limits: RenderLimits,
-    max_depth: int | None,
+    stage: Path, views: list[View], jobs: list[RenderJob], options: RenderOptions, display
 ) -> dict[str, Any]:
-    """Every view at one time code in this process: one Mitsuba scene, a sensor per product."""
+    """Every view at one time code in this process, as ``options`` asks: one Mitsuba scene, a
+    sensor per product."""
     from pavonine.apps.farm.render import image_record
     from pavonine.base.backend import BackendWarning
     from pavonine.render.api import render_products
@@ -341,18 +332,7 @@ def _render_here(
     wanted = [v.product for v in views if v.product is not None]
     with warnings_to_log(StageWarning, BackendWarning):
         results = render_products(
-            stage,
-            spp=spp,
-            max_depth=max_depth,
-            resolution=size,
-            seed=seed,
-            camera=views[0].camera,
-            time=time,
-            variant=variant,
-            moments=variance,
-            progress=show_progress(),
-            products=wanted or None,
-            limits=limits,
+            stage, options.but(camera=views[0].camera, products=wanted or None)
         )
     files, images = [], []
     for job, result in zip(jobs, results, strict=True):

@@ -32,6 +32,7 @@ import numpy as np
 
 from pavonine.base.errors import InputError
 from pavonine.render.limits import DEFAULT_LIMITS, RenderLimits
+from pavonine.render.options import RenderOptions
 
 _RENDER_LOCK = threading.Lock()
 THREADS_ENV = "PAVONINE_RENDER_THREADS"
@@ -61,6 +62,22 @@ class RenderTask:
     version: str = ""
     job: int = 0
     shard: int = 0
+
+    def render_options(self) -> RenderOptions:
+        """What :func:`pavonine.render.api.render_stage` is asked for (no progress bar: a worker
+        reports its shard when it is done)."""
+        return RenderOptions(
+            spp=self.spp,
+            max_depth=self.max_depth,
+            resolution=self.resolution,
+            seed=self.seed,
+            camera=self.camera,
+            time=self.time,
+            variant=self.variant,
+            moments=self.moments,
+            progress=False,
+            limits=self.limits,
+        )
 
 
 @dataclass
@@ -185,20 +202,7 @@ def render_task(task: RenderTask) -> RenderShard:
         _set_threads(task.threads)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", StageWarning)  # returned in .warnings instead
-            result = render_stage(
-                task.stage,
-                spp=task.spp,
-                max_depth=task.max_depth,
-                resolution=task.resolution,
-                seed=task.seed,
-                camera=task.camera,
-                product=task.product,
-                time=task.time,
-                variant=task.variant,
-                moments=task.moments,
-                progress=False,
-                limits=task.limits,
-            )
+            result = render_stage(task.stage, task.render_options(), product=task.product)
         done = time.perf_counter()
     return RenderShard(
         task.job,

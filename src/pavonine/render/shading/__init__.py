@@ -1,6 +1,8 @@
 """USD materials → Mitsuba BSDFs and emitters, one translator per module.
 
-* :mod:`.network` follows connections through ``NodeGraph``\\ s and dispatches each source node;
+* :mod:`.network` follows connections through ``NodeGraph``\\ s to each source node;
+* :mod:`.shader_ids` — which translator a shader goes to, by its ``info:id`` (one table each
+  for surfaces and for the nodes feeding inputs);
 * :mod:`.preview_surface` — ``UsdPreviewSurface`` (and MaterialX's ``ND_UsdPreviewSurface``);
 * :mod:`.textures` — ``UsdUVTexture`` and ``UsdTransform2d``;
 * :mod:`.primvars` — ``UsdPrimvarReader_*`` and ``displayColor``/``displayOpacity`` per mesh;
@@ -36,7 +38,6 @@ from pavonine.render.shading.spec import (
 )
 
 MITSUBA_CONTEXT = "mitsuba"
-PREVIEW_SURFACES = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
 
 __all__ = [
     "BARB_TANGENT",
@@ -56,7 +57,7 @@ def translate_material(
 ) -> MaterialSpec:
     """The :class:`MaterialSpec` of a bound USD material (feather, mitsuba, preview, or grey)."""
     from pavonine.render.shading import displacement as displacement_terminal
-    from pavonine.render.shading import materialx, mitsuba_context, preview_surface
+    from pavonine.render.shading.shader_ids import surface_translator
 
     path = str(material.GetPath())
     if feather.renders_as_feather(material):
@@ -67,18 +68,14 @@ def translate_material(
         return default_material()
     shader_id = shader_identifier(shader)
     net = Network(path, time, diag)
-    if shader_id.startswith(mitsuba_context.PREFIX):
-        fields: dict = {"bsdf": mitsuba_context.node(shader, net)}
-    elif shader_id in PREVIEW_SURFACES:
-        fields = preview_surface.preview_surface(shader, net)
-    elif shader_id in materialx.SURFACES:
-        fields = materialx.surface(shader, shader_id, net)
-    else:
+    translate = surface_translator(shader_id)
+    if translate is None:
         diag.warn(
             path,
             f"surface shader {shader_id or '(no info:id)'!r} is not supported; rendering grey diffuse",
         )
         return default_material()
+    fields = translate(shader, shader_id, net)
     fields["bsdf"], displacement = displacement_terminal.translate(
         material, shader, fields["bsdf"], net
     )

@@ -29,9 +29,9 @@ from pxr import UsdShade
 
 from pavonine.render.displacement import Displacement, from_texture
 from pavonine.render.shading.network import FLOAT, Affine, Network, shader_identifier
+from pavonine.render.shading.preview_surface import PREVIEW_SURFACES
 
 CONTEXTS = ("mitsuba", "", "mtlx")
-PREVIEW_SURFACES = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
 MTLX_DISPLACEMENT = "ND_displacement_float"
 #: hdmitsuba's ``mitsuba:displacement`` texture is centred on one half.
 HDMITSUBA_OFFSET = -0.5

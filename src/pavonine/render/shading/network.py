@@ -154,17 +154,12 @@ class Network:
         self, shader: UsdShade.Shader, output: str, kind: str, affine: Affine, consumer: str
     ) -> Any | None:
         """The Mitsuba value of ``shader.outputs:<output>``; ``None`` (warned) if unsupported."""
-        from pavonine.render.shading import materialx, mitsuba_context, primvars, textures
+        from pavonine.render.shading.shader_ids import node_translator
 
         shader_id = shader_identifier(shader)
-        if shader_id == "UsdUVTexture":
-            return textures.uv_texture(shader, output, kind, affine, self)
-        if shader_id.startswith(materialx.IMAGE_PREFIXES):
-            return materialx.image(shader, shader_id, kind, affine, self)
-        if shader_id.startswith("UsdPrimvarReader_"):
-            return primvars.reader(shader, shader_id, kind, affine, self)
-        if shader_id.startswith(mitsuba_context.PREFIX) and affine.identity:
-            return mitsuba_context.node(shader, self)
+        translate = node_translator(shader_id, affine)
+        if translate is not None:
+            return translate(shader, shader_id, output, kind, affine, self)
         self.warn(
             str(shader.GetPath()),
             f"shader {shader_id or '(no info:id)'!r} feeding {consumer} is not supported; "

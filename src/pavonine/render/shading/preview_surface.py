@@ -46,6 +46,9 @@ F0_PER_SPECULAR = 0.08  # Mitsuba principled: F0 = 0.08 · specular
 MIN_ETA = 1.0 + 1e-4
 HUE_TOLERANCE = 0.05
 
+#: The ``info:id``\ s translated here (MaterialX's nodedef of the same surface too).
+PREVIEW_SURFACES = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
+
 
 def preview_surface(shader: UsdShade.Shader, net: Network) -> dict[str, Any]:
     """The :class:`~.spec.MaterialSpec` fields of a UsdPreviewSurface (bsdf, opacity, emission...)."""
