@@ -18,9 +18,11 @@ setup: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/pavonine demo -o out/demo
 
+# ruff (lint and format), then the house's import contract (pyproject.toml, docs/house.md).
 lint: $(STAMP)
 	$(BIN)/python -m ruff check .
 	$(BIN)/python -m ruff format --check .
+	$(BIN)/lint-imports --no-cache
 
 # The environment's bin first: wheels bring command-line tools the tests run (mxvalidate, oiiotool).
 # One pytest worker per core (pytest-xdist), each test file on one worker so its module fixtures

@@ -2,7 +2,7 @@
 (``bpy.ops.import_scene.gltf``) and Cycles (and EEVEE where it starts headless) against Pavonine's
 render of the same camera and sun, per ocellus zone, face-on and tilted 40°.
 
-The setup is tests/test_gltf_threejs.py's, with Blender in place of three.js: the test eye
+The setup is tests/pipeline/test_gltf_threejs.py's, with Blender in place of three.js: the test eye
 (256-px maps, seed 4, as tests/conftest.py ``convert_eye`` builds it) exported with
 ``pavonine export --eye`` (the scene's camera); ``assets/scenes/eye_feather_sun.usda`` pointed at it, its camera turned by
 ``pipeline.export.iridescence.TILT_DEG`` about +Y for the tilted view; Pavonine's render at
@@ -34,7 +34,7 @@ and the bare substrate. ΔE2000 on the test eye (heart, blue-green, bronze, oute
     Cycles, film by hand    face-on  9.6 /  9.9 / 6.5 /  7.5 /  5.2   tilted  9.2 / 11.1 / 5.1 /  8.1 /  3.1
 
 ("film by hand": ``cycles_film``, see blender_render_gltf.wire_film.) The flat quads of
-tests/test_gltf_threejs.py, printed last, show that as imported Cycles draws what
+tests/pipeline/test_gltf_threejs.py, printed last, show that as imported Cycles draws what
 pipeline/export/iridescence.py says a viewer draws with the film's weight at 0.
 """
 
@@ -174,7 +174,7 @@ def _child(bpy_python: str, job: dict, folder: Path) -> dict:
 
 
 def quads(bpy_python: str, out: Path, samples: int) -> None:
-    """tests/test_gltf_threejs.py's flat quads (one material, 16×16 px, 1° field, no sky) in
+    """tests/pipeline/test_gltf_threejs.py's flat quads (one material, 16×16 px, 1° field, no sky) in
     Cycles against ``pipeline/export/iridescence.py``'s model of what a glTF viewer draws: as
     imported (no film: the model at weight 0) and with the film wired by hand (the model)."""
     from gltf_browser import SUN

@@ -1,5 +1,5 @@
 """The exported ``.glb`` in three.js against ``pavonine render``, per ocellus zone, for any feather
-asset: what tests/test_gltf_threejs.py asserts on the 256-px test eye, here on the shipped eye
+asset: what tests/pipeline/test_gltf_threejs.py asserts on the 256-px test eye, here on the shipped eye
 by default (1024² textures, 99k triangles) and at any resolution (by default the scene's own,
 512×768). It exports the asset, renders the shipped scene (assets/scenes/eye_feather_sun.usda:
 its camera, sun and sky) face-on and turned 40°, draws the ``.glb`` with three.js 0.187 in

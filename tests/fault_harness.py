@@ -3,7 +3,7 @@ commit step, fill its disk or cap its file size, and look at what a reader is le
 
 Extend it by adding a checkpoint (``pavonine.base.faults.checkpoint("step", subject)``) to a
 writer, listing the step in ``pavonine.base.faults.STEPS``, and a test in
-``tests/test_crash_safety.py`` that runs the command with ``fault="step"`` and checks the output
+``tests/base/test_commit.py`` that runs the command with ``fault="step"`` and checks the output
 with :func:`snapshot` against the old and the new version.
 """
 

@@ -5,7 +5,7 @@ given, renders into a linear float target and POSTs the pixels to the small loop
 here; three.js comes from ``.ci/node_modules`` (``.ci/package.json``, installed by ``.ci/setup``).
 :func:`compare_zones` sets the shipped scene's camera, sun and sky on a feather asset, turned
 about the vertical, and compares three.js' frame with ``pavonine render``'s per ocellus zone
-(tests/test_gltf_threejs.py, benchmarks/gltf_threejs.py).
+(tests/pipeline/test_gltf_threejs.py, benchmarks/gltf_threejs.py).
 """
 
 from __future__ import annotations

@@ -4,8 +4,8 @@ property, in one place so that a reviewer can extend them.
 To fuzz something new, add its values here: a number to :data:`HOSTILE_NUMBERS`, a string to
 :data:`HOSTILE_STRINGS`, a recipe key to :data:`RECIPE_KEYS` / :data:`TRAIN_KEYS`, an odd file to
 :func:`odd_files`, or a command-line option to :data:`CLI_OPTIONS` (values that must be refused
-before any work) or :data:`CLI_ANY` (any value, cheap commands). ``tests/test_fuzz_inputs.py``
-draws from them; ``tests/test_input_limits.py`` holds the named cases of issue 14.
+before any work) or :data:`CLI_ANY` (any value, cheap commands). ``tests/apps/test_fuzz_inputs.py``
+draws from them; ``tests/base/test_limits.py`` holds the named cases of issue 14.
 
 The property every run must meet (:func:`assert_clean`): exit 0, or exit 1/2 with exactly one
 ``error: <file or field>: <message>`` line on stderr (``warning:`` lines allowed), never a

@@ -1,5 +1,5 @@
 """Ocellus zones of a rendered feather: which zone of the eye each pixel sees, and mean colours
-per zone compared in CIE ΔE2000 (tests/test_preview_delta_e.py, tests/test_gltf_threejs.py).
+per zone compared in CIE ΔE2000 (tests/pipeline/test_bake_preview.py, tests/pipeline/test_gltf_threejs.py).
 
 Zones come from the ocellar map at the feather coordinate each pixel centre sees (a Mitsuba ray
 cast through the scene's own camera); pixels are kept where the alpha map is above 0.9, one pixel

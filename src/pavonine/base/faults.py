@@ -3,7 +3,7 @@
 ``PAVONINE_FAULT=STEP`` makes the process kill itself with ``SIGKILL`` when it reaches
 ``checkpoint(STEP)``; ``PAVONINE_FAULT=STEP@SUBJECT`` only where the checkpoint's subject (an
 asset or scene name) is ``SUBJECT``; ``PAVONINE_FAULT=STEP#N`` (also ``STEP#N@SUBJECT``) the
-``N``-th time it reaches that step (a step reached several times: between each two renames). It exists so that ``tests/test_crash_safety.py`` can crash a
+``N``-th time it reaches that step (a step reached several times: between each two renames). It exists so that ``tests/base/test_commit.py`` can crash a
 real ``pavonine`` process exactly between two steps of a commit and check what a reader is left
 with. It is for tests only: never set it in production. When it is unset a checkpoint is one
 comparison with ``None``.

@@ -105,7 +105,7 @@ class DataMap:
 
 
 #: One grey channel of 8 or 16 bits is decoded as stored and scaled here: ``k · (1 / (2ⁿ − 1))``
-#: in float32 is OpenImageIO's own conversion to float for every ``k`` (tests/test_maps.py), and
+#: in float32 is OpenImageIO's own conversion to float for every ``k`` (tests/pipeline/test_maps.py), and
 #: it halves what the decoder hands over (a 4096x8192 map: 1.45 s of CPU read as float, 0.96 s
 #: this way).
 INTEGER_SCALES = {

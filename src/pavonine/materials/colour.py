@@ -4,7 +4,7 @@ One colour pipeline for analysis and rendering:
 
 * CIE 1931 2° colour-matching functions and the CIE D65 illuminant are Mitsuba's own
   (``mi.cie1931_xyz``, ``mi.cie_d65``: the CIE tables, linearly interpolated), tabulated at 1 nm in
-  ``data/cie1931_d65_1nm.csv`` so that analysis needs no Mitsuba; ``tests/test_colour_tables.py``
+  ``data/cie1931_d65_1nm.csv`` so that analysis needs no Mitsuba; ``tests/materials/test_colour_tables.py``
   checks the table against Mitsuba.
 * XYZ → linear Rec.709/sRGB uses Mitsuba's ``mi.xyz_to_srgb`` matrix (:data:`XYZ_TO_SRGB`).
 * Display encoding goes through the current OpenColorIO display transform

@@ -20,7 +20,7 @@ Like OCIO's own ``GetCurrentConfig``/``SetCurrentConfig``, there is a *current* 
 Without OpenColorIO installed (``pip install pavonine`` without the ``[render]`` extra) the
 reference transform alone is still available: its ``Un-tone-mapped`` view on ``sRGB - Display``
 is the IEC 61966-2-1 sRGB encoding of linear Rec.709, computed in closed form
-(:func:`srgb_encode`); ``tests/test_display.py`` checks the two agree.
+(:func:`srgb_encode`); ``tests/materials/test_display.py`` checks the two agree.
 """
 
 from __future__ import annotations

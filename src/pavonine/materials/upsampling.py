@@ -9,7 +9,7 @@ their ``rgb2spec_opt``).
 
 Mitsuba looks the coefficients up in a table of such fits (``mi.srgb_model_fetch``); Pavonine uses
 Mitsuba's when it is installed and this fit otherwise (``pip install pavonine`` without
-``[render]``). ``tests/test_upsampling.py`` checks that both give the same spectrum.
+``[render]``). ``tests/materials/test_upsampling.py`` checks that both give the same spectrum.
 """
 
 from __future__ import annotations

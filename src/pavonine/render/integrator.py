@@ -35,7 +35,7 @@ What it computes is ``volpath``'s estimator without media (Mitsuba 3.9.1,
   camera rays, which pass through area lights (``volpath``'s ``skip_area_emitters``).
 
 Random numbers are drawn in ``volpath``'s order (roulette, light, BSDF), so with one seed the
-two images nearly coincide; ``tests/test_integrator.py`` compares them with different seeds by
+two images nearly coincide; ``tests/render/test_integrator.py`` compares them with different seeds by
 the statistical test ``pavonine compare --method stat`` uses, and against a closed form (a
 half-present card lets half the sun into its shadow). Media are not handled (the delegate makes
 none); scalar variants keep ``volpath`` (a Python integrator is called per sample there).

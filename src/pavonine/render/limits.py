@@ -28,7 +28,7 @@ MAX_PIXELS = 8192 * 8192
 MAX_SPP = 65536
 #: Mitsuba ``instance`` objects in one scene (PointInstancer instances plus instanceable prims).
 #: Mitsuba 3.9's LLVM variants trace every instance into the render kernel: measured 11 s for
-#: 50 instances and 54 s for 200 at 16×12, 1 spp (``tests/test_render_limits.py`` docstring),
+#: 50 instances and 54 s for 200 at 16×12, 1 spp (``tests/render/test_render_limits.py`` docstring),
 #: so 1000 already means minutes before the first sample; the shipped train has 192.
 MAX_INSTANCES = 1000
 #: Largest |coordinate| (scene units) of a point or a world translation the renderer accepts.

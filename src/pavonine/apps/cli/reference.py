@@ -15,12 +15,12 @@ from pavonine.apps.cli.options import json_schema, required_extras
 HEADER = """# `pavonine` command-line reference
 
 Generated from the commands' own help by `python -m pavonine.apps.cli.reference > docs/cli.md`;
-`tests/test_cli_reference.py` fails when this page is stale.
+`tests/apps/test_cli_reference.py` fails when this page is stale.
 
 ## Conventions
 
 Every command follows the same rules (`apps/cli/options.py`, imported as
-`pavonine.apps.cli.options`, implements them; `tests/test_cli_convention.py` walks every
+`pavonine.apps.cli.options`, implements them; `tests/apps/test_cli_convention.py` walks every
 registered command and checks them):
 
 * **`-o/--output PATH`** is where the command writes: a file or a folder, as its help says.
