@@ -280,7 +280,7 @@ def staged_files(folder: str | os.PathLike, subject: str | None = None) -> Itera
 @contextmanager
 def temporary_file(target: str | os.PathLike) -> Iterator[Path]:
     """Yield a hidden temporary path beside ``target`` (its folder created), for
-    :func:`commit_files` or :func:`pavonine.base.errors.atomic_path`; removed on exit if
+    :func:`commit_files` or :func:`atomic_path`; removed on exit if
     still there. Write errors about it become one-line :class:`InputError` naming ``target``
     (:func:`pavonine.base.errors.write_error`)."""
     target = Path(target)
@@ -450,3 +450,23 @@ def check_writable(path: str | os.PathLike) -> None:
         raise InputError(str(path), f"cannot write here ({exc.strerror or exc})") from None
     finally:
         remove_if_empty(created)
+
+
+@contextmanager
+def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``target``; rename it over ``target`` only on success.
+
+    An ``OSError`` or a USD error about the temporary file (or its folder) is reported as an
+    :class:`InputError` naming ``target``, which is what the user asked to write
+    (:func:`temporary_file`).
+    """
+    target = Path(target)
+    recover(target.parent)  # what killed writers left here
+    with temporary_file(target) as tmp:
+        yield tmp
+        if tmp.exists():  # a writer may have replaced it: the permissions open() would give
+            umask = os.umask(0)
+            os.umask(umask)
+            tmp.chmod(0o666 & ~umask)
+            refuse_cut_short(tmp, target)  # libraries do not all report a short write
+        os.replace(tmp, target)

@@ -6,9 +6,7 @@ import errno
 import functools
 import os
 import re
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from pathlib import Path
+from collections.abc import Callable
 from typing import Any, TypeVar
 
 import click
@@ -181,26 +179,3 @@ def one_line_errors(func: F) -> F:
             raise SystemExit(EXIT_BAD_INPUT) from None
 
     return wrapper  # type: ignore[return-value]
-
-
-@contextmanager
-def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
-    """Yield a temporary path beside ``target``; rename it over ``target`` only on success.
-
-    An ``OSError`` or a USD error about the temporary file (or its folder) is reported as an
-    :class:`InputError` naming ``target``, which is what the user asked to write
-    (:func:`pavonine.base.commit.temporary_file`).
-    """
-    from pavonine.base.commit import recover, temporary_file
-    from pavonine.base.truncation import refuse_cut_short
-
-    target = Path(target)
-    recover(target.parent)  # what killed writers left here
-    with temporary_file(target) as tmp:
-        yield tmp
-        if tmp.exists():  # a writer may have replaced it: the permissions open() would give
-            umask = os.umask(0)
-            os.umask(umask)
-            tmp.chmod(0o666 & ~umask)
-            refuse_cut_short(tmp, target)  # libraries do not all report a short write
-        os.replace(tmp, target)

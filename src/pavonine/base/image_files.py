@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pavonine.base.commit import atomic_path
 from pavonine.base.errors import (
     InputError,
-    atomic_path,
     diagnose_write_failure,
     scrub_temporaries,
 )

@@ -100,7 +100,7 @@ def write_turntable_layer(
     time: float | None = None,
 ) -> list[str]:
     """Write the turntable layer (module docstring); returns the camera prim paths in order."""
-    from pavonine.base.errors import atomic_path
+    from pavonine.base.commit import atomic_path
     from pavonine.render.delegate import open_stage, render_time
     from pavonine.render.diagnostics import Diagnostics
 

@@ -20,7 +20,8 @@ from pavonine.apps.cli.options import (
     warnings_to_log,
 )
 from pavonine.apps.cli.values import SEED
-from pavonine.base.errors import InputError, atomic_path, one_line_errors
+from pavonine.base.commit import atomic_path
+from pavonine.base.errors import InputError, one_line_errors
 from pavonine.base.shipped import assets_dir
 
 FEATHER = "eye_feather"

@@ -15,7 +15,8 @@ from pavonine.apps.cli.options import (
     progress_bar,
     say,
 )
-from pavonine.base.errors import atomic_path, one_line_errors
+from pavonine.base.commit import atomic_path
+from pavonine.base.errors import one_line_errors
 
 DEFAULT_OUTPUT = Path("out/figures")
 

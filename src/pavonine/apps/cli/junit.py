@@ -79,7 +79,7 @@ def junit_xml(suite: str, cases: list[Case]) -> bytes:
 
 def write_junit(path: str | os.PathLike, suite: str, cases: list[Case]) -> None:
     """Write :func:`junit_xml` to ``path`` atomically."""
-    from pavonine.base.errors import atomic_path
+    from pavonine.base.commit import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_bytes(junit_xml(suite, cases))

@@ -42,7 +42,8 @@ import click
 from pavonine import LOGGER_NAME
 from pavonine.apps.cli.values import FiniteFloat
 from pavonine.base.backend import debian_hint, first_import_error
-from pavonine.base.errors import InputError, atomic_path
+from pavonine.base.commit import atomic_path
+from pavonine.base.errors import InputError
 from pavonine.pipeline.convert.meshing import check_filters, meshing_backend
 
 F = Callable[..., Any]

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from pavonine.apps.compare.methods import ComparisonResult
-from pavonine.base.errors import atomic_path
+from pavonine.base.commit import atomic_path
 from pavonine.render.imageio import write_display_png, write_png
 
 _TEMPLATE = """<!DOCTYPE html>

@@ -38,7 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from pavonine import LOGGER_NAME
-from pavonine.base.errors import InputError, atomic_path
+from pavonine.base.commit import atomic_path
+from pavonine.base.errors import InputError
 from pavonine.materials import colour
 from pavonine.materials.display import srgb_encode
 from pavonine.pipeline.bake.asset import bound_meshes, mesh_data, root_layer_path

@@ -15,7 +15,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from pavonine.base.errors import InputError, atomic_path
+from pavonine.base.commit import atomic_path
+from pavonine.base.errors import InputError
 from pavonine.pipeline.bake.asset import root_layer_path
 
 

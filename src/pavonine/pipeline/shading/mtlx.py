@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from pavonine.base.errors import atomic_path
+from pavonine.base.commit import atomic_path
 from pavonine.base.truncation import refuse_size_other_than
 from pavonine.materials import materialx
 from pavonine.materials.parameters import FeatherParameters
