@@ -28,6 +28,11 @@ JSON_SCHEMA = {
             "minItems": 2,
             "maxItems": 2,
         },
+        "rattle": {
+            "type": "object",
+            "description": "the train animated ([rattle]; absent without one): sidecar layer, "
+            "first and last frame, fps, time samples, prototype variants, flexed points",
+        },
     },
 }
 
@@ -65,13 +70,19 @@ def train(recipe: Path, output: Path, force: bool, json_target: str | None) -> N
         f"{size[0]:.0f} × {size[1]:.0f} × {size[2]:.0f} cm"
     )
     say(f"layout: {result.layout_png}")
-    emit_json(
-        json_target,
-        {
-            "root": str(result.root),
-            "layout": str(result.layout_png),
-            "instances": result.instances,
-            "prototypes": result.counts,
-            "extent_cm": result.extent.round(3).tolist(),
-        },
-    )
+    report = {
+        "root": str(result.root),
+        "layout": str(result.layout_png),
+        "instances": result.instances,
+        "prototypes": result.counts,
+        "extent_cm": result.extent.round(3).tolist(),
+    }
+    if result.rattle is not None:
+        rattle = result.rattle
+        say(
+            f"rattle: frames {rattle.frames[0]}-{rattle.frames[1]} at {rattle.fps:g} fps, "
+            f"{rattle.time_samples} time samples, {rattle.variants} prototype variants, "
+            f"{rattle.flexed_points:,} flexed points ({rattle.sidecar})"
+        )
+        report["rattle"] = rattle.to_json()
+    emit_json(json_target, report)

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from pavonine.base.limits import SEED_RANGE
+from pavonine.pipeline.assemble.rattle import Rattle, parse_rattle
 from pavonine.pipeline.convert.recipe import (
     _NAME_RE,
     _check_keys,
@@ -84,6 +85,7 @@ class TrainRecipe:
     version: str = "1.0"
     jitter: Jitter = field(default_factory=Jitter)
     variation: Variation = field(default_factory=Variation)
+    rattle: Rattle | None = None  # [rattle]: the train animated (pipeline/assemble/rattle.py)
 
     @property
     def feather_count(self) -> int:
@@ -200,7 +202,17 @@ def _parse_variation(path: Path, table: Any) -> Variation:
 def parse_train_recipe(path: str | os.PathLike) -> TrainRecipe:
     """Read and check a train recipe; raises :class:`InputError` naming the file and key."""
     path, data = read_toml(path)
-    allowed = {"name", "version", "seed", "lod", "components", "rows", "jitter", "variation"}
+    allowed = {
+        "name",
+        "version",
+        "seed",
+        "lod",
+        "components",
+        "rows",
+        "jitter",
+        "variation",
+        "rattle",
+    }
     _check_keys(path, data, allowed, "")
     name, version = name_and_version(path, data, "peacock_train")
     seed = int(_number(path, "seed", data.get("seed", 0), positive=False, integer=True))
@@ -239,6 +251,7 @@ def parse_train_recipe(path: str | os.PathLike) -> TrainRecipe:
         version,
         _parse_jitter(path, data.get("jitter", {})),
         _parse_variation(path, data.get("variation", {})),
+        parse_rattle(path, data["rattle"]) if "rattle" in data else None,
     )
     if recipe.feather_count > MAX_FEATHERS:
         raise _fail(path, "rows", f"{recipe.feather_count} feathers; at most {MAX_FEATHERS:,}")

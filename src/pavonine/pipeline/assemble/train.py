@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,6 +49,7 @@ class TrainResult:
     layout_png: Path
     counts: dict[str, int]
     extent: np.ndarray  # (2, 3) cm
+    rattle: Any = None  # pipeline.assemble.rattle.RattleResult when the recipe has [rattle]
 
     @property
     def instances(self) -> int:
@@ -216,10 +218,18 @@ def assemble_train(
     final = outdir.resolve() / recipe.name
     with staging_folder(outdir, recipe.name, force) as folder:
         extent = write_train_layer(folder / f"{recipe.name}.usda", recipe, fan, final)
+        rattle = None
+        if recipe.rattle is not None:  # the train animated: pipeline/assemble/rattle.py
+            from pavonine.pipeline.assemble.rattle import animate
+
+            rattle = animate(folder / f"{recipe.name}.usda", recipe, fan)
+            rattle.sidecar = outdir / recipe.name / rattle.sidecar.name
+            extent = rattle.extent
         write_layout_png(folder / f"{recipe.name}_layout.png", recipe, fan)
     return TrainResult(
         outdir / recipe.name / f"{recipe.name}.usda",
         outdir / recipe.name / f"{recipe.name}_layout.png",
         fan.counts(),
         extent,
+        rattle,
     )

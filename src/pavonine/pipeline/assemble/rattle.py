@@ -1,0 +1,704 @@
+"""The rattle: a displaying peacock's shivering train, written as USD time samples.
+
+A train recipe with a ``[rattle]`` table (``docs/pipeline.md``, *The rattle*) animates the
+assembly ``pavonine assemble train`` writes; without one, nothing here runs and the assembly is
+byte for byte what it was. The numbers are those of Dakin et al. 2016, "Biomechanics of the
+Peacock's Display: How Feather Structure and Resonance Influence Multimodal Signaling", *PLoS
+ONE* 11(4): e0152759 (high-speed video of 14 displaying males; laboratory shaker tests):
+
+* **One drive frequency.** The train is rattled at 25.6 Hz on average; arrays of train feathers
+  have a broad resonant peak over the range of rattling frequencies, so every feather moves at
+  the drive frequency (``frequency_hz``), each with its own phase (``phase_spread``, seeded).
+* **The eyespot nearly still** (at most 1.7 mm side to side in the field videos, "less than
+  2 mm"): its barbs are hooked together (SEM: microhooks) into one heavy, stiff disc. The
+  feather's rigid sway about its base (``orientationsf`` time samples of the PointInstancer) is
+  sized so that the farthest point of the eyespot moves ``eyespot_mm``.
+* **Standing waves with a node near the eyespot** ("like the strings of a guitar"): the rachis
+  below the eyespot bends side to side as a half sine between its base and the eyespot's lower
+  edge, ``sin(pi y / y_node)``; nothing above the node bends.
+* **The loose barbs swing** (up to 9.6 mm, "even near the eyespots"): each barb is a cantilever
+  from the rachis, bending in the vane's plane perpendicular to itself with the first cantilever
+  mode shape of its distance from the rachis (so long barbs swing most and short ones little),
+  lagging the rachis by up to a quarter period at its tip. Locked (eyespot) barbs do not swing.
+
+The flex is real geometry motion that stays small on disk and in memory: two UsdSkel blend
+shapes per deformed prim (the in-phase and quadrature offsets of the vibration, written once per
+prototype into a ``class`` that its variants inherit), and ``phases`` variants of each prototype
+(``<prototype>_rattle<k>``, a ``SkelRoot``) whose ``SkelAnimation`` drives the two weights with
+``sin`` and ``cos`` of the drive at phase ``2 pi k / phases``. Each instance takes the variant
+nearest its phase. Blend-shape weights and orientations are sampled ``samples_per_frame`` times a
+frame (USD interpolates weights linearly and quaternions by slerp) from half a frame before the
+first frame to half a frame after the last, so a renderer's shutter interval of up to a frame
+around each frame finds dense samples: a 25.6 Hz motion seen at 24 fps is beyond the Nyquist
+limit (12 Hz), and only motion blur over dense time samples shows it as the blur it is.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pavonine.pipeline.convert.recipe import _check_keys, _fail, _number
+
+if TYPE_CHECKING:
+    from pavonine.pipeline.assemble.fan import Fan
+    from pavonine.pipeline.assemble.recipe import TrainRecipe
+
+#: Dakin et al. 2016: mean train-rattling frequency of 14 males (high-speed video).
+MEAN_FREQUENCY_HZ = 25.6
+#: Dakin et al. 2016: the eyespots' largest side-to-side movement while rattling.
+EYESPOT_MM = 1.7
+#: Dakin et al. 2016: the loose barbs' largest lateral movement, near the eyespots too.
+BARB_MM = 9.6
+#: Time samples per period of the drive below which linear interpolation of a sine fails (a
+#: chord of a quarter period misses the crest by 29 %; at 8 samples a period by 7.6 %).
+MIN_SAMPLES_PER_PERIOD = 4
+#: Most time samples one rattle may write (frames × samples_per_frame + 1).
+MAX_TIME_SAMPLES = 4096
+#: Ocellar classes at and above this are the eyespot, whose barbs are hooked together
+#: (``pipeline/maps/paint.py``: 2…5 the rings, 1 the vane around them, 0 the loose lower vane).
+EYESPOT_CLASS = 2
+#: First cantilever mode (clamped-free beam): ``beta L`` and its shape's ``sigma``.
+_BETA1 = 1.8751040687
+_SIGMA1 = (math.cosh(_BETA1) + math.cos(_BETA1)) / (math.sinh(_BETA1) + math.sin(_BETA1))
+#: Per-barb phase offset of barb curves (``geometry = "barbs"``): uniform in ± this (radians);
+#: the loose barbs move "independently", a modelling choice, not a measured spread.
+BARB_PHASE_SPREAD = math.pi / 4
+#: The two blend shapes of every deformed prim, and their prims' names.
+SHAPES = ("rattleSin", "rattleCos")
+SHAPE_PRIMS = ("RattleSin", "RattleCos")
+#: The sidecar layer holding the heavy, shared data (blend-shape offsets, orientations).
+SIDECAR_SUFFIX = "_rattle.usdc"
+
+#: ``[rattle]`` keys: (low, high, integer). ``frequency_hz``, ``fps`` and ``duration_s`` must
+#: be positive; the rest may be zero.
+RANGES: dict[str, tuple[float, float, bool]] = {
+    "frequency_hz": (1.0, 100.0, False),
+    "eyespot_mm": (0.0, 50.0, False),
+    "barb_mm": (0.0, 100.0, False),
+    "phase_spread": (0.0, 1.0, False),
+    "phases": (1, 16, True),
+    "fps": (1.0, 240.0, False),
+    "duration_s": (0.001, 60.0, False),
+    "start_frame": (-100_000, 100_000, True),
+    "samples_per_frame": (1, 64, True),
+}
+
+
+@dataclass(frozen=True)
+class Rattle:
+    """A parsed ``[rattle]`` table (defaults: Dakin et al. 2016, a 0.25 s shot at 24 fps)."""
+
+    frequency_hz: float = MEAN_FREQUENCY_HZ
+    eyespot_mm: float = EYESPOT_MM
+    barb_mm: float = BARB_MM
+    phase_spread: float = 1.0  # instance phases uniform in [0, phase_spread) cycles
+    phases: int = 4  # phase-shifted variants of each prototype (the flex)
+    fps: float = 24.0  # frames per second = the layer's timeCodesPerSecond
+    duration_s: float = 0.25
+    start_frame: int = 1
+    samples_per_frame: int = 16
+
+    @property
+    def frames(self) -> int:
+        """Frames of the shot: ``duration_s × fps``, rounded up."""
+        return max(1, math.ceil(self.duration_s * self.fps - 1e-9))
+
+    @property
+    def end_frame(self) -> int:
+        return self.start_frame + self.frames - 1
+
+    def times(self) -> np.ndarray:
+        """Time codes of the samples: every ``1/samples_per_frame`` frame from half a frame
+        before the first frame to half a frame after the last."""
+        count = self.frames * self.samples_per_frame + 1
+        return self.start_frame - 0.5 + np.arange(count) / self.samples_per_frame
+
+    def samples_per_period(self) -> float:
+        return self.samples_per_frame * self.fps / self.frequency_hz
+
+
+def parse_rattle(path: Path, table: Any) -> Rattle:
+    """Check a ``[rattle]`` table; :class:`InputError` naming ``rattle.<key>``."""
+    if not isinstance(table, dict):
+        raise _fail(path, "rattle", "expected a table [rattle]")
+    _check_keys(path, table, {f.name for f in fields(Rattle)}, "rattle.")
+    values: dict[str, Any] = {}
+    for key, value in table.items():
+        low, high, integer = RANGES[key]
+        where = f"rattle.{key}"
+        number = _number(path, where, value, positive=False, integer=integer) if low >= 0 else (
+            _signed(path, where, value, integer)
+        )  # fmt: skip
+        if not low <= number <= high:
+            raise _fail(path, where, f"must lie in [{low:g}, {high:g}], got {number:g}")
+        values[key] = int(number) if integer else float(number)
+    rattle = Rattle(**values)
+    if rattle.samples_per_period() < MIN_SAMPLES_PER_PERIOD:
+        need = math.ceil(MIN_SAMPLES_PER_PERIOD * rattle.frequency_hz / rattle.fps)
+        raise _fail(
+            path,
+            "rattle.samples_per_frame",
+            f"{rattle.samples_per_frame} a frame is {rattle.samples_per_period():.2g} a period of "
+            f"{rattle.frequency_hz:g} Hz at {rattle.fps:g} fps; at least {need} needed "
+            f"({MIN_SAMPLES_PER_PERIOD} a period)",
+        )
+    if rattle.frames * rattle.samples_per_frame + 1 > MAX_TIME_SAMPLES:
+        raise _fail(
+            path,
+            "rattle.duration_s",
+            f"{rattle.frames} frames × {rattle.samples_per_frame} samples exceed "
+            f"{MAX_TIME_SAMPLES} time samples",
+        )
+    return rattle
+
+
+def _signed(path: Path, key: str, value: Any, integer: bool) -> float:
+    if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
+        kind = "an integer" if integer else "a number"
+        raise _fail(path, key, f"expected {kind}, got {value!r}")
+    if not math.isfinite(value):
+        raise _fail(path, key, f"must be finite, got {value}")
+    return value
+
+
+# ------------------------------------------------------------------------------ the motion
+
+
+def cantilever_mode(xi: np.ndarray) -> np.ndarray:
+    """First bending mode of a clamped-free beam at ``xi`` in [0, 1], 0 at the root, 1 at the tip."""
+    b = _BETA1 * np.clip(xi, 0.0, 1.0)
+    shape = np.cosh(b) - np.cos(b) - _SIGMA1 * (np.sinh(b) - np.sin(b))
+    tip = math.cosh(_BETA1) - math.cos(_BETA1) - _SIGMA1 * (math.sinh(_BETA1) - math.sin(_BETA1))
+    return shape / tip
+
+
+def instance_phases(seed: int, count: int, spread: float) -> np.ndarray:
+    """Per-instance phase (radians), uniform in ``[0, 2 pi spread)``, from its own stream of the
+    recipe's seed (the fan's layout and looks do not move)."""
+    rng = np.random.default_rng([seed & 0xFFFFFFFF, 0x7A77_1E])
+    return 2.0 * np.pi * spread * rng.random(count)
+
+
+def variant_of(phases: np.ndarray, variants: int) -> np.ndarray:
+    """The phase variant nearest each phase: ``round(phase / (2 pi / variants)) mod variants``."""
+    return np.mod(np.rint(phases * variants / (2.0 * np.pi)), variants).astype(np.int64)
+
+
+@dataclass
+class Deformed:
+    """One prim of a prototype that flexes: the points that move and their two offsets (cm)."""
+
+    path: str  # relative to the prototype root, e.g. "Geom/Vane"
+    indices: np.ndarray  # (n,) point indices
+    sin: np.ndarray  # (n, 3) offset at weight sin(wt + phase)
+    cos: np.ndarray  # (n, 3) offset at weight cos(wt + phase)
+    eyespot: np.ndarray  # (n,) bool: the point lies on the eyespot (for checks)
+
+
+@dataclass
+class Shape:
+    """A prototype's vibration, before the amplitude is set (unit rachis and barb amplitude)."""
+
+    name: str
+    deformed: list[Deformed] = field(default_factory=list)
+    sway_radius_cm: float = 1.0  # base → the farthest eyespot point (the tip without one)
+    peak: float = 0.0  # largest displacement of the unit shape over its loose points
+    loose_reach_cm: float = 0.0  # the farthest loose point from the rachis
+
+
+@dataclass
+class _Prim:
+    path: str
+    points: np.ndarray
+    uv: np.ndarray | None
+    tangent: np.ndarray | None
+    curves: np.ndarray | None  # curveVertexCounts of a BasisCurves
+
+
+def _read_prims(asset: Path, lod: str, geometry: str) -> list[_Prim]:
+    """Point-based prims of a component with its ``lod`` and ``geometry`` selected."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(asset))
+    stage.SetEditTarget(stage.GetSessionLayer())
+    root = stage.GetDefaultPrim()
+    for name, selection in (("lod", lod), ("geometry", geometry)):
+        variants = root.GetVariantSets().GetVariantSet(name)
+        if selection in variants.GetVariantNames():
+            variants.SetVariantSelection(selection)
+    found = []
+    for prim in Usd.PrimRange(root):
+        if not prim.IsA(UsdGeom.PointBased):
+            continue
+        points = UsdGeom.PointBased(prim).GetPointsAttr().Get()
+        if not points:
+            continue
+        points = np.array(points, dtype=np.float64)
+        counts = None
+        if prim.IsA(UsdGeom.BasisCurves):
+            counts = np.array(UsdGeom.BasisCurves(prim).GetCurveVertexCountsAttr().Get(), int)
+        found.append(
+            _Prim(
+                str(prim.GetPath().MakeRelativePath(root.GetPath())),
+                points,
+                _vertex_primvar(prim, "pavonine_featherUV", 2, len(points)),
+                _vertex_primvar(prim, "pavonine_barbTangent", 3, len(points)),
+                counts,
+            )
+        )
+    return found
+
+
+def _vertex_primvar(prim, name: str, width: int, count: int) -> np.ndarray | None:
+    """A vertex primvar's first ``width`` components per point, ``None`` when it is missing or
+    not one value per point."""
+    from pxr import UsdGeom
+
+    primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
+    if not primvar or primvar.GetInterpolation() not in ("vertex", "varying"):
+        return None
+    values = primvar.ComputeFlattened()
+    if values is None or len(values) != count:
+        return None
+    array = np.array(values, dtype=np.float64).reshape(count, -1)
+    return array[:, :width] if array.shape[1] >= width else None
+
+
+def _eyespot_lock(asset: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """The component's eyespot from its ocellar map (``maps/ocellar.png``): a mask (class ≥ 2)
+    and a lock weight (1 on the mask and just beyond, falling to 0 over ~1 % of the map), or
+    ``None`` when the component has no such map or no eyespot."""
+    from scipy import ndimage
+
+    from pavonine.base.map_files import read_data_map
+    from pavonine.pipeline.maps.paint import ocellar_class
+
+    path = asset.parent / "maps" / "ocellar.png"
+    if not path.is_file():
+        return None
+    grey = read_data_map(path, "maps.ocellar").values
+    mask = ocellar_class(grey) >= EYESPOT_CLASS
+    if not mask.any():
+        return None
+    sigma = 0.01 * max(mask.shape)
+    lock = np.clip(2.0 * ndimage.gaussian_filter(mask.astype(np.float32), sigma), 0.0, 1.0)
+    return mask, lock
+
+
+def _sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Nearest texel of a map at feather UVs (v up: row 0 is the top, v = 1)."""
+    height, width = image.shape
+    cols = np.clip(np.rint(uv[:, 0] * (width - 1)), 0, width - 1).astype(int)
+    rows = np.clip(np.rint((1.0 - uv[:, 1]) * (height - 1)), 0, height - 1).astype(int)
+    return image[rows, cols]
+
+
+def _curve_tangents(points: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    tangents = np.zeros_like(points)
+    start = 0
+    for n in counts:
+        segment = points[start : start + n]
+        if n > 1:
+            tangents[start : start + n] = np.gradient(segment, axis=0)
+        start += n
+    return tangents
+
+
+@dataclass
+class Geometry:
+    """A prototype's point-based prims with the eyespot's lock weight and mask at each point."""
+
+    name: str
+    prims: list[_Prim]
+    locks: list[np.ndarray]
+    masks: list[np.ndarray]
+
+    @property
+    def loose_reach_cm(self) -> float:
+        """The farthest point from the rachis that is not locked into the eyespot (cm)."""
+        reach = [np.abs(p.points[lock < 1.0, 0]) for p, lock in zip(self.prims, self.locks,
+                                                                     strict=True)]  # fmt: skip
+        reach = [r for r in reach if len(r)]
+        return float(max(r.max() for r in reach)) if reach else 0.0
+
+
+def read_geometry(name: str, asset: Path, lod: str, geometry: str) -> Geometry:
+    """The prototype ``name`` (``asset`` at ``lod``/``geometry``) as :class:`Geometry`."""
+    prims = _read_prims(asset, lod, geometry)
+    eyespot = _eyespot_lock(asset)
+    locks, masks = [], []
+    for prim in prims:
+        if eyespot is not None and prim.uv is not None:
+            mask = _sample(eyespot[0], prim.uv).astype(bool)
+            masks.append(mask)
+            locks.append(np.maximum(_sample(eyespot[1], prim.uv).astype(np.float64), mask))
+        else:
+            masks.append(np.zeros(len(prim.points), bool))
+            locks.append(np.zeros(len(prim.points)))
+    return Geometry(name, prims, locks, masks)
+
+
+def node_height(geometry: Geometry) -> float:
+    """Where the rachis' standing wave has its node (cm above the base): the eyespot's lower
+    edge (the lowest point its lock touches), else the feather's tip."""
+    touched = [p.points[lock > 0, 1] for p, lock in zip(geometry.prims, geometry.locks,
+                                                          strict=True)]  # fmt: skip
+    touched = [t for t in touched if len(t)]
+    if touched:
+        return max(float(min(t.min() for t in touched)), 1e-6)
+    tips = [p.points[:, 1].max() for p in geometry.prims]
+    return max(float(max(tips)), 1e-6) if tips else 1e-6
+
+
+def tip_height(geometry: Geometry) -> float:
+    """The feather's length: its highest point above the base (cm)."""
+    return max((float(p.points[:, 1].max()) for p in geometry.prims), default=1e-6)
+
+
+def prototype_shape(geometry: Geometry, reach_cm: float, tip_cm: float, seed: int) -> Shape:
+    """The unit vibration of one prototype before :func:`scale_shapes`. ``reach_cm`` is the
+    train's longest loose barb and ``tip_cm`` its longest feather: a barb's mode shape is of its
+    distance from the rachis over ``reach_cm`` and a rachis' amplitude is its feather's length
+    over ``tip_cm`` (geometrically similar standing waves), so shorter barbs and feathers, which
+    are stiffer, swing less."""
+    shape = Shape(geometry.name)
+    prims, locks = geometry.prims, geometry.locks
+    if not prims:
+        return shape
+    every = np.concatenate([p.points for p in prims])
+    touched = [p.points[lock > 0] for p, lock in zip(prims, locks, strict=True)]
+    touched = np.concatenate(touched)
+    if len(touched):  # the sway: to the eyespot's farthest point
+        held = np.concatenate([p.points[lock >= 0.999] for p, lock in zip(prims, locks,
+                                                                            strict=True)])  # fmt: skip
+        held = held if len(held) else touched
+        shape.sway_radius_cm = float(np.hypot(held[:, 0], held[:, 1]).max())
+    else:  # no eyespot: the sway is measured at the tip
+        shape.sway_radius_cm = float(np.hypot(every[:, 0], every[:, 1]).max())
+    y_node = node_height(geometry)
+    rachis_amplitude = min(tip_height(geometry) / max(tip_cm, 1e-6), 1.0)
+    shape.sway_radius_cm = max(shape.sway_radius_cm, 1e-6)
+    shape.loose_reach_cm = geometry.loose_reach_cm
+    reach = max(reach_cm, 1e-6)
+    rng = np.random.default_rng([seed & 0xFFFFFFFF, 0xBA4B5])
+    for prim, lock, mask in zip(prims, locks, geometry.masks, strict=True):
+        p = prim.points
+        # The rachis: a half sine between the base and the node, nothing above it.
+        xi = p[:, 1] / y_node
+        rachis = np.where((xi > 0) & (xi < 1), np.sin(np.pi * np.clip(xi, 0, 1)), 0.0)
+        rachis *= rachis_amplitude
+        # The barbs: in the vane's plane, perpendicular to the barb, the +x way round.
+        tangent = prim.tangent
+        if tangent is None and prim.curves is not None:
+            tangent = _curve_tangents(p, prim.curves)
+        normal = np.zeros_like(p)
+        normal[:, 0] = 1.0
+        if tangent is not None:
+            t = tangent[:, :2]
+            length = np.linalg.norm(t, axis=1)
+            ok = length > 1e-9
+            n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+            n[ok] /= length[ok, None]
+            n[n[:, 0] < 0] *= -1.0
+            normal[ok, :2] = n[ok]
+        s = np.clip(np.abs(p[:, 0]) / reach, 0.0, 1.0)
+        barb = cantilever_mode(s) * (1.0 - lock)
+        lag = 0.5 * np.pi * s  # up to a quarter period behind the rachis at the longest tip
+        if prim.curves is not None:  # each barb its own phase offset
+            offsets = rng.uniform(-BARB_PHASE_SPREAD, BARB_PHASE_SPREAD, len(prim.curves))
+            lag = lag + np.repeat(offsets, prim.curves)
+        # displacement = rachis·x̂·sin(θ) + barb·n̂·sin(θ − lag) = sin(θ)·S + cos(θ)·C
+        sin = (barb * np.cos(lag))[:, None] * normal
+        sin[:, 0] += rachis
+        cos = -(barb * np.sin(lag))[:, None] * normal
+        moving = np.flatnonzero(np.abs(sin).sum(axis=1) + np.abs(cos).sum(axis=1) > 1e-7)
+        if len(moving) == 0:
+            continue
+        shape.deformed.append(Deformed(prim.path, moving, sin[moving], cos[moving], mask[moving]))
+        peak = _peak(sin, cos)[lock < 1.0]
+        if len(peak):
+            shape.peak = max(shape.peak, float(peak.max()))
+    return shape
+
+
+def _peak(sin: np.ndarray, cos: np.ndarray) -> np.ndarray:
+    """Largest ``|sin·a + cos·b|`` over a cycle, per point (the ellipse's semi-major axis)."""
+    ss = np.einsum("ij,ij->i", sin, sin)
+    cc = np.einsum("ij,ij->i", cos, cos)
+    sc = np.einsum("ij,ij->i", sin, cos)
+    return np.sqrt(0.5 * (ss + cc) + np.sqrt(0.25 * (ss - cc) ** 2 + sc**2))
+
+
+def peak_displacement(deformed: Deformed) -> np.ndarray:
+    """Largest displacement of each moving point over a cycle (cm, prototype space)."""
+    return _peak(deformed.sin, deformed.cos)
+
+
+def scale_shapes(
+    shapes: list[Shape], lengths: dict[str, float], barb_mm: float, eyespot_mm: float
+) -> float:
+    """Scale every prototype's flex so that the largest flex of a loose point in the train (a
+    prototype's peak × its longest instance) is ``barb_mm − eyespot_mm``: with the rigid sway,
+    which moves no loose point more than the eyespot (``eyespot_mm``; the tip of a feather
+    without one), no loose barb moves more than ``barb_mm``. Returns the factor (cm per unit)."""
+    worst = max((s.peak * lengths.get(s.name, 1.0) for s in shapes), default=0.0)
+    target = max(barb_mm - eyespot_mm, 0.0) / 10.0
+    factor = target / worst if worst > 0 else 0.0
+    for shape in shapes:
+        for d in shape.deformed:
+            d.sin *= factor
+            d.cos *= factor
+        shape.peak *= factor
+    return factor
+
+
+# ------------------------------------------------------------------------------ authoring
+
+
+@dataclass
+class RattleResult:
+    """What :func:`animate` wrote."""
+
+    sidecar: Path
+    frames: tuple[int, int]
+    fps: float
+    time_samples: int
+    variants: int  # prototype variants (prototypes × phases)
+    flexed_points: int  # points with blend-shape offsets, over every prototype
+    extent: np.ndarray  # (2, 3) cm: the static extent padded by the largest displacement
+    factor: float = 0.0  # cm of flex per unit shape
+    shapes: list[Shape] = field(default_factory=list, repr=False)
+    phases: np.ndarray | None = field(default=None, repr=False)  # per instance (radians)
+    sway_rad: np.ndarray | None = field(default=None, repr=False)  # per instance amplitude
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "sidecar": str(self.sidecar),
+            "frames": list(self.frames),
+            "fps": self.fps,
+            "time_samples": self.time_samples,
+            "variants": self.variants,
+            "flexed_points": self.flexed_points,
+        }
+
+
+def variant_name(prototype: str, k: int) -> str:
+    return f"{prototype}_rattle{k}"
+
+
+def plan(recipe: TrainRecipe, fan: Fan) -> RattleResult:
+    """The rattle of ``recipe``'s fan (shapes, phases and sway), before anything is written."""
+    from pavonine.pipeline.assemble.fan import prototype_parts
+
+    rattle = recipe.rattle
+    assert rattle is not None
+    geometries = []
+    for name in fan.prototypes:
+        component, geometry = prototype_parts(name, recipe.components)
+        geometries.append(read_geometry(name, recipe.components[component], recipe.lod, geometry))
+    reach = max((g.loose_reach_cm for g in geometries), default=0.0)
+    tip = max((tip_height(g) for g in geometries), default=1.0)
+    shapes = [prototype_shape(g, reach, tip, recipe.seed) for g in geometries]
+    lengths = {
+        name: float(fan.scales[fan.proto_indices == i, 1].max(initial=0.0))
+        for i, name in enumerate(fan.prototypes)
+    }
+    factor = scale_shapes(shapes, lengths, rattle.barb_mm, rattle.eyespot_mm)
+    phases = instance_phases(recipe.seed, len(fan), rattle.phase_spread)
+    radius = np.array([s.sway_radius_cm for s in shapes])[fan.proto_indices]
+    sway = (rattle.eyespot_mm / 10.0) / (radius * fan.scales[:, 1])
+    return RattleResult(
+        Path(),
+        (rattle.start_frame, rattle.end_frame),
+        rattle.fps,
+        len(rattle.times()),
+        len(fan.prototypes) * rattle.phases,
+        sum(len(d.indices) for s in shapes for d in s.deformed),
+        np.zeros((2, 3)),
+        factor,
+        shapes,
+        phases,
+        sway,
+    )
+
+
+def sway_orientations(fan: Fan, result: RattleResult, rattle: Rattle) -> np.ndarray:
+    """(T, N, 4) instance orientations (w, x, y, z) at every time sample: the fan's, after a
+    rotation about the feather's own Z (its vane's normal) by ``-sway · sin(wt + phase)``."""
+    from pavonine.pipeline.assemble.fan import _multiply, _quaternion
+
+    z = np.array([0.0, 0.0, 1.0])
+    out = np.empty((len(rattle.times()), len(fan), 4))
+    omega = 2.0 * np.pi * rattle.frequency_hz / rattle.fps  # radians per time code
+    for j, t in enumerate(rattle.times()):
+        angle = -result.sway_rad * np.sin(omega * t + result.phases)
+        out[j] = _multiply(fan.orientations, _quaternion(z, angle))
+    return out
+
+
+def animate(root_layer: Path, recipe: TrainRecipe, fan: Fan) -> RattleResult:
+    """Add the rattle to the assembly layer at ``root_layer`` (written by ``write_train_layer``)
+    and write its sidecar ``<name>_rattle.usdc`` beside it; returns what was written."""
+    from pxr import Gf, Sdf, Vt
+
+    rattle = recipe.rattle
+    assert rattle is not None
+    result = plan(recipe, fan)
+    layer = Sdf.Layer.FindOrOpen(str(root_layer))
+    name = recipe.name
+    base = Sdf.Path(f"/{name}/Feathers")
+    sidecar_path = root_layer.with_name(f"{name}{SIDECAR_SUFFIX}")
+    sidecar = Sdf.Layer.CreateNew(str(sidecar_path))
+    times = rattle.times()
+    omega = 2.0 * np.pi * rattle.frequency_hz / rattle.fps
+
+    # The shot's clock on the assembly (the scene that references it says the same).
+    layer.timeCodesPerSecond = rattle.fps
+    layer.framesPerSecond = rattle.fps
+    layer.startTimeCode = rattle.start_frame
+    layer.endTimeCode = rattle.end_frame
+    layer.subLayerPaths.append(f"./{sidecar_path.name}")
+
+    # Shared per prototype, in the sidecar: the blend shapes and the one-joint skeleton.
+    Sdf.CreatePrimInLayer(sidecar, base)
+    classes = Sdf.CreatePrimInLayer(sidecar, Sdf.Path(f"/{name}/Rattle"))
+    classes.specifier = Sdf.SpecifierClass
+    for shape in result.shapes:
+        _author_class(sidecar, classes.path.AppendChild(shape.name), shape)
+
+    # Per variant, in the assembly: a SkelRoot copy of the prototype, its animation.
+    prototypes = base.AppendChild("Prototypes")
+    targets = []
+    for shape in result.shapes:
+        source = prototypes.AppendChild(shape.name)
+        for k in range(rattle.phases):
+            path = prototypes.AppendChild(variant_name(shape.name, k))
+            if not Sdf.CopySpec(layer, source, layer, path):
+                raise OSError(f"{root_layer}: cannot copy {source}")
+            spec = layer.GetPrimAtPath(path)
+            spec.typeName = "SkelRoot"
+            spec.inheritPathList.prependedItems = [classes.path.AppendChild(shape.name)]
+            weights = [
+                Vt.FloatArray([math.sin(omega * t + phase), math.cos(omega * t + phase)])
+                for phase in [2.0 * np.pi * k / rattle.phases]
+                for t in times
+            ]
+            _author_animation(layer, path, times, weights)
+            targets.append(path)
+        del layer.GetPrimAtPath(prototypes).nameChildren[shape.name]
+    instancer = layer.GetPrimAtPath(base)
+    instancer.relationships["prototypes"].targetPathList.explicitItems = targets
+    variants = variant_of(result.phases, rattle.phases)
+    indices = fan.proto_indices.astype(np.int64) * rattle.phases + variants
+    instancer.attributes["protoIndices"].default = Vt.IntArray([int(i) for i in indices])
+
+    # The rigid sway: orientationsf (float quaternions: a 1.7 mm sway is 0.006 rad, below
+    # what the half-precision `orientations` resolve), its default the fan at rest.
+    sway = sway_orientations(fan, result, rattle)
+    over = sidecar.GetPrimAtPath(base)
+    attr = Sdf.AttributeSpec(over, "orientationsf", Sdf.ValueTypeNames.QuatfArray)
+
+    def quats(q: np.ndarray):
+        return Vt.QuatfArray([Gf.Quatf(float(w), float(x), float(y), float(z)) for w, x, y, z in q])
+
+    attr.default = quats(fan.orientations)
+    for t, q in zip(times, sway, strict=True):
+        sidecar.SetTimeSample(attr.path, float(t), quats(q))
+
+    # Extent: the static one padded by the largest displacement anywhere.
+    extent = np.array(instancer.attributes["extent"].default, dtype=np.float64)
+    pad = (rattle.barb_mm + 2.0 * rattle.eyespot_mm) / 10.0
+    extent = extent + np.array([[-pad] * 3, [pad] * 3])
+    padded = Vt.Vec3fArray([Gf.Vec3f(*map(float, row)) for row in extent])
+    instancer.attributes["extent"].default = padded
+    root = layer.GetPrimAtPath(f"/{name}")
+    if "extentsHint" in root.attributes:
+        root.attributes["extentsHint"].default = padded
+    root.documentation = (
+        f"{root.documentation} Rattled at {rattle.frequency_hz:g} Hz "
+        f"(frames {rattle.start_frame}-{rattle.end_frame} at {rattle.fps:g} fps, "
+        f"{len(times)} time samples; docs/pipeline.md, 'The rattle')."
+    )
+    if not sidecar.Save() or not layer.Save():
+        raise OSError(f"{root_layer}: cannot write the rattle")
+    result.sidecar = sidecar_path
+    result.extent = extent
+    return result
+
+
+def _author_class(layer, path, shape: Shape) -> None:
+    """``class`` with the one-joint skeleton, the rigid binding and the blend shapes."""
+    from pxr import Gf, Sdf, Vt
+
+    spec = Sdf.CreatePrimInLayer(layer, path)
+    spec.specifier = Sdf.SpecifierClass
+    spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"]))
+    skeleton = Sdf.PrimSpec(spec, "Skel", Sdf.SpecifierDef, "Skeleton")
+    _attr(skeleton, "joints", Sdf.ValueTypeNames.TokenArray, Vt.TokenArray(["root"]), True)
+    identity = Vt.Matrix4dArray([Gf.Matrix4d(1.0)])
+    _attr(skeleton, "bindTransforms", Sdf.ValueTypeNames.Matrix4dArray, identity, True)
+    _attr(skeleton, "restTransforms", Sdf.ValueTypeNames.Matrix4dArray, identity, True)
+    _rel(spec, "skel:skeleton", [skeleton.path])
+    for primvar, kind, value in (
+        ("primvars:skel:jointIndices", Sdf.ValueTypeNames.IntArray, Vt.IntArray([0])),
+        ("primvars:skel:jointWeights", Sdf.ValueTypeNames.FloatArray, Vt.FloatArray([1.0])),
+    ):
+        attr = _attr(spec, primvar, kind, value)
+        attr.SetInfo("interpolation", "constant")
+        attr.SetInfo("elementSize", 1)
+    for deformed in shape.deformed:
+        target = Sdf.CreatePrimInLayer(layer, path.AppendPath(Sdf.Path(deformed.path)))
+        target.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"]))
+        _attr(target, "skel:blendShapes", Sdf.ValueTypeNames.TokenArray, Vt.TokenArray(SHAPES),
+              True)  # fmt: skip
+        shapes = []
+        for prim_name, offsets in zip(SHAPE_PRIMS, (deformed.sin, deformed.cos), strict=True):
+            blend = Sdf.PrimSpec(target, prim_name, Sdf.SpecifierDef, "BlendShape")
+            _attr(blend, "offsets", Sdf.ValueTypeNames.Vector3fArray,
+                  Vt.Vec3fArray.FromNumpy(offsets.astype(np.float32)), True)  # fmt: skip
+            _attr(blend, "pointIndices", Sdf.ValueTypeNames.IntArray,
+                  Vt.IntArray.FromNumpy(deformed.indices.astype(np.int32)), True)  # fmt: skip
+            shapes.append(blend.path)
+        _rel(target, "skel:blendShapeTargets", shapes)
+
+
+def _author_animation(layer, path, times: np.ndarray, weights: list) -> None:
+    """The variant's ``SkelAnimation`` (the two weights' time samples) and its skeleton's
+    ``skel:animationSource``."""
+    from pxr import Gf, Sdf, Vt
+
+    spec = layer.GetPrimAtPath(path)
+    motion = Sdf.PrimSpec(spec, "Motion", Sdf.SpecifierDef, "SkelAnimation")
+    _attr(motion, "joints", Sdf.ValueTypeNames.TokenArray, Vt.TokenArray(["root"]), True)
+    _attr(motion, "translations", Sdf.ValueTypeNames.Float3Array, Vt.Vec3fArray([Gf.Vec3f(0)]))
+    _attr(motion, "rotations", Sdf.ValueTypeNames.QuatfArray, Vt.QuatfArray([Gf.Quatf(1.0)]))
+    _attr(motion, "scales", Sdf.ValueTypeNames.Half3Array, Vt.Vec3hArray([Gf.Vec3h(1.0)]))
+    _attr(motion, "blendShapes", Sdf.ValueTypeNames.TokenArray, Vt.TokenArray(SHAPES), True)
+    attr = _attr(motion, "blendShapeWeights", Sdf.ValueTypeNames.FloatArray, None)
+    for t, w in zip(times, weights, strict=True):
+        layer.SetTimeSample(attr.path, float(t), w)
+    skel = Sdf.PrimSpec(spec, "Skel", Sdf.SpecifierOver)
+    skel.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["SkelBindingAPI"]))
+    _rel(skel, "skel:animationSource", [motion.path])
+
+
+def _attr(spec, name: str, kind, value, uniform: bool = False):
+    from pxr import Sdf
+
+    variability = Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying
+    attr = Sdf.AttributeSpec(spec, name, kind, variability)
+    if value is not None:
+        attr.default = value
+    return attr
+
+
+def _rel(spec, name: str, targets: list) -> None:
+    from pxr import Sdf
+
+    rel = Sdf.RelationshipSpec(spec, name, custom=False)
+    rel.targetPathList.explicitItems = targets
