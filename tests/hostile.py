@@ -223,6 +223,20 @@ TRAIN_KEYS = [
     "variation.structural_scale",
     "unknown",
 ]
+#: Keys of a train recipe's ``[rattle]`` table (``pipeline/assemble/rattle.py``) and its own.
+RATTLE_KEYS = [
+    "rattle",
+    "rattle.frequency_hz",
+    "rattle.eyespot_mm",
+    "rattle.barb_mm",
+    "rattle.phase_spread",
+    "rattle.phases",
+    "rattle.fps",
+    "rattle.duration_s",
+    "rattle.start_frame",
+    "rattle.samples_per_frame",
+    "rattle.unknown",
+]
 
 
 def small_feather_recipe(maps_dir: Path) -> dict[str, Any]:
@@ -242,6 +256,24 @@ def small_train_recipe(component: Path) -> dict[str, Any]:
         "name": "fuzz_train",
         "components": {"eye": str(component)},
         "rows": [{"component": "eye", "count": 3, "radius_cm": 10}],
+    }
+
+
+def small_rattle_recipe(component: Path) -> dict[str, Any]:
+    """A valid train recipe with a ``[rattle]`` of every key (a 2-frame shot)."""
+    return {
+        **small_train_recipe(component),
+        "rattle": {
+            "frequency_hz": 25.6,
+            "eyespot_mm": 1.7,
+            "barb_mm": 9.6,
+            "phase_spread": 1.0,
+            "phases": 2,
+            "fps": 24,
+            "duration_s": 0.08,
+            "start_frame": 1,
+            "samples_per_frame": 8,
+        },
     }
 
 

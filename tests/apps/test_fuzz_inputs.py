@@ -22,6 +22,7 @@ from hostile import (
     CLI_ANY,
     CLI_OPTIONS,
     MAP_NAMES,
+    RATTLE_KEYS,
     RECIPE_KEYS,
     TRAIN_KEYS,
     assert_clean,
@@ -32,6 +33,7 @@ from hostile import (
     odd_recipe_texts,
     run_cli,
     small_feather_recipe,
+    small_rattle_recipe,
     small_train_recipe,
     time_limit,
     to_toml,
@@ -125,6 +127,29 @@ def test_train_recipes_parse_or_fail_on_one_line(workspace, tmp_path_factory, da
             parse_train_recipe(path)
         except InputError as exc:
             _one_line(exc, path)
+
+
+@examples(100)
+@given(data=st.data())
+def test_rattle_recipes_parse_or_fail_on_one_line(workspace, tmp_path_factory, data):
+    """The ``[rattle]`` keys (issue 35): out of range, NaN, a wrong type, a missing or unknown
+    key parse or fail on one line naming the file and ``rattle.<key>``."""
+    from pavonine.pipeline.assemble.recipe import parse_train_recipe
+
+    table = data.draw(mutated(small_rattle_recipe(workspace / "eye.usda"), RATTLE_KEYS))
+    path = tmp_path_factory.mktemp("rattle") / "t.toml"
+    path.write_text(to_toml(table), encoding="utf-8")
+    with time_limit(10):
+        try:
+            recipe = parse_train_recipe(path)
+        except InputError as exc:
+            _one_line(exc, path)
+            assert ": rattle" in str(exc), str(exc)
+            return
+    rattle = recipe.rattle
+    if isinstance(table.get("rattle"), dict):
+        assert rattle is not None and rattle.samples_per_period() >= 4
+        assert len(rattle.times()) <= 4096 and np.all(np.isfinite(rattle.times()))
 
 
 @pytest.mark.convert
