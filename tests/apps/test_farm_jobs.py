@@ -235,3 +235,21 @@ def test_workers_do_not_log_input_errors_but_do_log_bugs():
     assert not logger.filter(record("ParameterError('radius: must be positive')"))
     assert logger.filter(record("ZeroDivisionError('division by zero')"))
     assert logger.filter(logging.LogRecord("distributed.worker", 30, "", 0, "other", (), None))
+
+
+def test_every_image_line_says_how_long_it_took(capsys):
+    """Per-frame time (issue 35's rattle shot): each image's record carries its render time
+    (on the farm, its tasks' summed time) and its line on stdout ends with it."""
+    from pavonine.apps.cli.render import _show
+    from pavonine.apps.farm.render import image_record
+
+    metadata = {"resolution": [512, 384], "spp": 8, "variant": "llvm_ad_spectral", "time": 3.0,
+                "seconds": 61.2345}  # fmt: skip
+    record = image_record(metadata, exr=Path("rattle.0003.exr"), png=Path("rattle.0003.png"))
+    assert record["seconds"] == 61.234 and record["time"] == 3.0
+    _show(record)
+    line = capsys.readouterr().out.strip()
+    assert line.startswith("rattle.0003.exr + rattle.0003.png: 512×384, 8 spp")
+    assert line.endswith(", 61.2 s"), line
+    del metadata["seconds"]
+    assert image_record(metadata, exr=Path("x.exr"))["seconds"] is None

@@ -76,6 +76,10 @@ IMAGE_SCHEMA = {
             "items": {"type": "string"},
             "description": "the renderer's warnings for this image",
         },
+        "seconds": {
+            "type": ["number", "null"],
+            "description": "render time of this image (on the farm: its tasks' summed time)",
+        },
     },
 }
 
@@ -297,9 +301,11 @@ def _show(record: dict[str, Any]) -> None:
     written = " + ".join(str(p) for p in (record["exr"], record["png"], record["variance"]) if p)
     w, h = record["resolution"]
     shards = f" in {record['shards']} shards" if record["shards"] > 1 else ""
+    seconds = record.get("seconds")
+    took = f", {seconds:.1f} s" if seconds is not None else ""
     say(
         f"{written}: {w}×{h}, {record['spp']} spp{shards}, {record['variant']}, "
-        f"channels {', '.join(record['channels'])}"
+        f"channels {', '.join(record['channels'])}{took}"
     )
 
 

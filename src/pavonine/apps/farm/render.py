@@ -176,7 +176,13 @@ def image_record(
         "shards": shards,
         "workers": list(workers),
         "warnings": list(warnings),
+        "seconds": _seconds(metadata.get("seconds")),
     }
+
+
+def _seconds(value: Any) -> float | None:
+    """An image's render time (its shards' summed task time on the farm), if recorded."""
+    return round(float(value), 3) if isinstance(value, (int, float)) else None
 
 
 def _task_record(task: RenderTask, shard: RenderShard, task_bytes: int) -> dict[str, Any]:
