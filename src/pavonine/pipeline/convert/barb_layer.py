@@ -5,8 +5,9 @@ material that shows them in any viewer.
 with authored ``normals`` (vertex: the vane normal, so USD draws each curve as a ribbon facing
 it), ``widths`` (vertex, cm: the barb with its barbules' span) and vertex primvars sampled from the
 maps (names in :data:`PRIMVARS`, and ``primvars:pavonine_featherUV`` as on the sheet);
-``primvars:pavonine_barbId`` is uniform (one per barb) and ``primvars:displayColor`` (vertex)
-the baked preview colour. No ``pavonine_barbTangent``: on a curve the barb direction is its
+``primvars:pavonine_barbId`` is uniform (one per barb), ``primvars:displayColor`` (vertex)
+the baked preview colour, and the constant ``primvars:pavonine_barbules = 1`` asks Pavonine
+to render each barb's ramus and barbules (:mod:`pavonine.render.barbules`). No ``pavonine_barbTangent``: on a curve the barb direction is its
 tangent ``dP/du`` (the renderer's contract, docs/render.md). The asset's root layer payloads it
 in the ``barbs`` variant of its ``geometry`` variant set (:mod:`pavonine.pipeline.convert.asset`).
 """
@@ -34,6 +35,8 @@ PRIMVARS = {
     "pavonine_barbuleAngle": "barbule_angle_deg",
 }
 BARB_ID = "pavonine_barbId"
+#: Constant int, 1: the curves carry barbules (the renderer's ramus and barbule pattern).
+BARBULES = "pavonine_barbules"
 #: GGX roughness of the barbs' preview surface: the crescent spread is in the bake's colour.
 PREVIEW_ROUGHNESS = 0.45
 
@@ -105,6 +108,8 @@ def write_barbs_layer(path: Path, name: str, barbs: BarbCurves, geom: str = "Geo
     primvars.CreatePrimvar(BARB_ID, Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.uniform).Set(
         Vt.IntArray.FromNumpy(barbs.barb_id.astype(np.int32))
     )
+    # Pavonine renders the ramus and barbules under each barb (pavonine.render.barbules).
+    primvars.CreatePrimvar(BARBULES, Sdf.ValueTypeNames.Int, UsdGeom.Tokens.constant).Set(1)
     if barbs.display_color is not None:
         display = curves.CreateDisplayColorPrimvar(vertex)
         display.Set(Vt.Vec3fArray.FromNumpy(barbs.display_color.astype(np.float32)))
