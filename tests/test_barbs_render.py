@@ -226,6 +226,9 @@ def test_ring_boundaries_on_the_barbs_show_no_texel_staircase(tmp_path):
     lit = luma > 0.25 * np.median(luma)
     nearest = ndimage.distance_transform_edt(~lit, return_distances=False, return_indices=True)
     key = key[nearest[0], nearest[1]]
+    # The rami and single barbules (issue 33: 1–3 px here) are taken out by a median, which keeps
+    # the boundary's own steps (an edge).
+    key = ndimage.median_filter(key, size=5)
     left_value, right_value = np.median(key[:, :8]), np.median(key[:, -8:])
     assert left_value > right_value + 0.05  # two zones, violet on the left
     rendered = _deviation(_boundary_columns(key > 0.5 * (left_value + right_value)))
@@ -241,4 +244,6 @@ def test_ring_boundaries_on_the_barbs_show_no_texel_staircase(tmp_path):
     )
     assert on_vane[lo : lo + CROP, lo : lo + CROP].all()
     assert staircase > 1.5, staircase  # the metric sees the texels
-    assert rendered <= 1.0, (rendered, staircase)
+    # With barbules (issue 33) a ring's edge is broken at their scale too, as on a real feather:
+    # smoother than the map's texels by a fifth, no longer within 1 px of a smooth curve.
+    assert rendered <= 0.8 * staircase, (rendered, staircase)

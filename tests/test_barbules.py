@@ -60,7 +60,9 @@ def test_barbules_leave_the_ramus_towards_the_barb_tip_on_both_sides(side):
     barbule near the ramus and the point 60 µm further along the fishbone's axis (towards the
     tip, away from the ramus) lie on barbules far more often than the point 60 µm along the
     mirror axis (towards the root)."""
-    layout = bp.BarbuleLayout(barbule_width_um=8.0, barbule_taper=0.0, neck_depth=0.0)
+    layout = bp.BarbuleLayout(
+        barbule_width_um=8.0, barbule_pitch_um=20.0, barbule_taper=0.0, neck_depth=0.0
+    )
     rng = np.random.default_rng(1)
     n = 20000
     s = rng.uniform(5000, 30000, n)
@@ -105,7 +107,7 @@ def test_a_closed_vane_is_covered_with_gaps_between_the_barbules(angle):
 
 
 def test_the_ramus_tapers_and_stays_a_thin_line():
-    h = np.full(3, 1000.0)
+    h = np.full(3, 1.0e5)  # a wide barb: the ramus' own width, not its cap
     r = bp.ramus_half_width(np.array([0.0, 20_000.0, 200_000.0]), h, bp.BarbuleLayout(), NUMPY)
     assert r[0] == pytest.approx(bp.RAMUS_BASE_UM) and r[0] > r[1] > r[2] >= bp.RAMUS_TIP_UM
     narrow = bp.ramus_half_width(np.array([0.0]), np.array([100.0]), bp.BarbuleLayout(), NUMPY)
@@ -149,7 +151,7 @@ def _curves(stage, path, barbules: bool):
     api = UsdGeom.PrimvarsAPI(curves)
     api.CreatePrimvar("pavonine_barbId", Sdf.ValueTypeNames.IntArray, "uniform").Set([5])
     if barbules:
-        api.CreatePrimvar("pavonine_barbules", Sdf.ValueTypeNames.Int, "constant").Set(1)
+        api.CreatePrimvar("pavonine_barbules", Sdf.ValueTypeNames.Float, "constant").Set(0.8)
     return curves.GetPrim()
 
 
@@ -167,7 +169,7 @@ def test_barbs_with_barbules_are_three_vertices_across_wider_and_drooping(recwar
     assert BARB_HALF_WIDTH not in plain.primvars
     points = barb.topology.points
     assert len(points) == 3 * samples
-    wide = 0.1 * (1.0 + bp.BARBULE_OVERLAP)
+    wide = 0.1 * (1.0 + 0.8)  # the authored reach
     assert np.ptp(points[:, 1]) == pytest.approx(2 * wide)
     edges = points.reshape(samples, 3, 3)[:, [0, 2]]
     assert edges[..., 2] == pytest.approx(-math.tan(math.radians(bp.DROOP_DEG)) * wide)

@@ -50,9 +50,9 @@ BARBULE_WIDTH_UM = glitter.BARBULE_WIDTH_UM
 #: Distance between neighbouring barbules' axes, perpendicular to them (µm). Not found in the
 #: sources searched; a parameter: below the barbules' width, so that they overlap at their roots
 #: like shingles (a closed vane), and the gaps between them open as they taper.
-BARBULE_PITCH_UM = 17.0
+BARBULE_PITCH_UM = 14.0
 #: A barbule's width at its tip as a share of its root's is ``1 − BARBULE_TAPER``.
-BARBULE_TAPER = 0.3
+BARBULE_TAPER = 0.25
 #: The barbule narrows by this share of its width at each joint between two blocks ...
 NECK_DEPTH = 0.45
 #: ... over this length either side of the joint (µm).
@@ -60,12 +60,12 @@ NECK_UM = 3.0
 #: Barbule tips end between ``1 − TIP_JITTER`` and ``1 + BARBULE_OVERLAP`` of the way from the
 #: ramus to the ribbon's authored edge: a ragged edge that interleaves with the neighbouring
 #: barb's barbules (the renderer tessellates barbs ``1 + BARBULE_OVERLAP`` wider than authored).
-TIP_JITTER = 0.25
-BARBULE_OVERLAP = 0.6
+TIP_JITTER = 0.2
+BARBULE_OVERLAP = 0.8
 #: Each barbule's twist about its own axis (degrees, standard deviation of its normal's tilt):
 #: paper §2.1, barbules "twisted at the root". A parameter (the paper gives no angle); taken out
 #: of the crescent's spread θ0 = 15° (:func:`split_crescent`), which keeps 9° within a barbule.
-TWIST_SIGMA_DEG = 12.0
+TWIST_SIGMA_DEG = 13.5
 #: Ramus half width at the rachis and towards the barb's tip (µm), and the length over which it
 #: tapers (e-folding, µm). Not found in the sources searched; parameters.
 RAMUS_BASE_UM = 45.0
@@ -73,7 +73,7 @@ RAMUS_TIP_UM = 8.0
 RAMUS_TAPER_UM = 20_000.0
 #: The ramus never takes more than this share of the ribbon's half width (the barbs' average
 #: colour stays the sheet's: the coarse levels have no ramus).
-RAMUS_MAX_SHARE = 0.1
+RAMUS_MAX_SHARE = 0.03
 #: How much of the ramus' round cross-section shows in its shading normal (1: a cylinder).
 RAMUS_ROUNDNESS = 0.8
 #: Thickness of the layer of barbules (µm): overlapping barbules of neighbouring barbs lie in it
@@ -239,9 +239,11 @@ def barbule_pattern(
     t = ops.select(on_ramus, a_um / ops.maximum(r, 1e-6), 0.0) * layout.ramus_roundness
     gauss = ops.sqrt(-2.0 * ops.log(u_twist1)) * ops.cos(2.0 * math.pi * u_twist2)
     twist = ops.sin(gauss * (layout.twist_sigma_deg * math.pi / 180.0))
-    # A barbule's axis (cos φ, side·sin φ) in (along, across); its normal tilts about it, towards
-    # the in-plane perpendicular (−side·sin φ, cos φ).
-    tilt_along = ops.select(on_ramus, 0.0, -side * sin_phi * twist)
-    tilt_across = ops.select(on_ramus, t, cos_phi * twist)
+    # The twist tilts the normal across the barbule axis the BSDF uses (the angle map's, on both
+    # sides: its crescent spread lies across that axis, and the twist takes its share of it),
+    # towards the in-plane perpendicular (−sin θ, cos θ) in (along, across).
+    theta = angle_deg * (math.pi / 180.0)
+    tilt_along = ops.select(on_ramus, 0.0, -ops.sin(theta) * twist)
+    tilt_across = ops.select(on_ramus, t, ops.cos(theta) * twist)
     axis = side * phi * (180.0 / math.pi)
     return BarbulePoint(present, on_ramus, tilt_along, tilt_across, side, axis)

@@ -1,8 +1,8 @@
 """``pavonine_barbules``: the feather BSDF on barb ribbons, with the barb's ramus and barbules.
 
-Curves that author the constant ``primvars:pavonine_barbules = 1`` (``pavonine convert``'s
-barbs) are tessellated with it (:mod:`pavonine.render.curves.ribbons`: three vertices across,
-wider than authored, edges drooping) and shaded with it; other ribbons bound to a feather material
+Curves that author ``primvars:pavonine_barbules`` (``pavonine convert``'s barbs: the barbules'
+reach past the authored edge) are tessellated with it (:mod:`pavonine.render.curves.ribbons`:
+three vertices across, wider than authored, edges drooping) and shaded with it; other ribbons bound to a feather material
 keep the plain feather BSDF.
 
 The feather BSDF (:mod:`pavonine.render.feather_bsdf`) shades a ribbon as one smooth strip of
@@ -38,7 +38,8 @@ from pavonine.render.feather_encoding import BARB_COORDINATE_ATTRIBUTE
 from pavonine.render.plugins import register_once
 
 PLUGIN_NAME = "pavonine_barbules"
-#: Constant primvar (int, 1) on barb curves: they carry barbules (``pavonine convert`` writes it).
+#: Primvar on barb curves (float, vertex or constant): they carry barbules, reaching this share
+#: of their half width past the authored edge (``pavonine convert`` writes it).
 BARBULES_PRIMVAR = "pavonine_barbules"
 #: The mesh attribute of a ribbon's half width at each vertex (scene units, world-scaled).
 HALF_WIDTH_ATTRIBUTE = "vertex_barb_half_width"
@@ -200,17 +201,11 @@ class Barbules:
 
 
 def carries_barbules(prim) -> bool:
-    """True when the curves ``prim`` author ``primvars:pavonine_barbules`` non-zero (inherited too)."""
+    """True when the curves ``prim`` author ``primvars:pavonine_barbules`` (inherited too)."""
     from pxr import UsdGeom
 
     primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(BARBULES_PRIMVAR)
-    if not primvar or not primvar.HasValue():
-        return False
-    value = primvar.Get()
-    try:
-        return bool(value)
-    except (TypeError, ValueError):  # an array: not the constant the contract names
-        return False
+    return bool(primvar) and primvar.HasValue()
 
 
 def _plugin_class():

@@ -6,8 +6,9 @@ with authored ``normals`` (vertex: the vane normal, so USD draws each curve as a
 it), ``widths`` (vertex, cm: the barb with its barbules' span) and vertex primvars sampled from the
 maps (names in :data:`PRIMVARS`, and ``primvars:pavonine_featherUV`` as on the sheet);
 ``primvars:pavonine_barbId`` is uniform (one per barb), ``primvars:displayColor`` (vertex)
-the baked preview colour, and the constant ``primvars:pavonine_barbules = 1`` asks Pavonine
-to render each barb's ramus and barbules (:mod:`pavonine.render.barbules`). No ``pavonine_barbTangent``: on a curve the barb direction is its
+the baked preview colour, and ``primvars:pavonine_barbules`` (vertex) asks Pavonine to render
+each barb's ramus and barbules (:mod:`pavonine.render.barbules`), reaching that share of the half
+width past the authored edge (:func:`barbule_reach`). No ``pavonine_barbTangent``: on a curve the barb direction is its
 tangent ``dP/du`` (the renderer's contract, docs/render.md). The asset's root layer payloads it
 in the ``barbs`` variant of its ``geometry`` variant set (:mod:`pavonine.pipeline.convert.asset`).
 """
@@ -35,8 +36,27 @@ PRIMVARS = {
     "pavonine_barbuleAngle": "barbule_angle_deg",
 }
 BARB_ID = "pavonine_barbId"
-#: Constant int, 1: the curves carry barbules (the renderer's ramus and barbule pattern).
+#: Vertex float: the curves carry barbules (the renderer's ramus and barbule pattern), reaching
+#: this share of the authored half width past the authored edge (:func:`barbule_reach`).
 BARBULES = "pavonine_barbules"
+#: Below this alpha coverage the barbs are free filaments: their barbules reach no further than
+#: the authored edge (:func:`barbule_reach`).
+LOOSE_COVERAGE = 0.75
+
+
+def barbule_reach(coverage: np.ndarray) -> np.ndarray:
+    """How far past a barb's authored edge its barbules reach (share of its half width):
+    :data:`~pavonine.materials.barbule_pattern.BARBULE_OVERLAP` where the vane is closed
+    (coverage 1: the eye's barbules interlock and overlap their neighbours'), none where the
+    coverage is below :data:`LOOSE_COVERAGE` and barbs hang loose as free filaments (Dakin et
+    al. 2016, PLoS ONE 11: e0152759), linear between: the free filaments cover the share of the
+    vane the sheet's alpha does."""
+    from pavonine.materials.barbule_pattern import BARBULE_OVERLAP
+
+    c = np.asarray(coverage, dtype=np.float64)
+    return BARBULE_OVERLAP * np.clip((c - LOOSE_COVERAGE) / (1.0 - LOOSE_COVERAGE), 0.0, 1.0)
+
+
 #: GGX roughness of the barbs' preview surface: the crescent spread is in the bake's colour.
 PREVIEW_ROUGHNESS = 0.45
 
@@ -108,8 +128,11 @@ def write_barbs_layer(path: Path, name: str, barbs: BarbCurves, geom: str = "Geo
     primvars.CreatePrimvar(BARB_ID, Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.uniform).Set(
         Vt.IntArray.FromNumpy(barbs.barb_id.astype(np.int32))
     )
-    # Pavonine renders the ramus and barbules under each barb (pavonine.render.barbules).
-    primvars.CreatePrimvar(BARBULES, Sdf.ValueTypeNames.Int, UsdGeom.Tokens.constant).Set(1)
+    # Pavonine renders the ramus and barbules under each barb (pavonine.render.barbules), their
+    # reach past the authored edge where the vane is closed.
+    primvars.CreatePrimvar(BARBULES, Sdf.ValueTypeNames.FloatArray, vertex).Set(
+        Vt.FloatArray.FromNumpy(barbule_reach(barbs.coverage).astype(np.float32))
+    )
     if barbs.display_color is not None:
         display = curves.CreateDisplayColorPrimvar(vertex)
         display.Set(Vt.Vec3fArray.FromNumpy(barbs.display_color.astype(np.float32)))

@@ -17,9 +17,10 @@ the barb tangent T̂ as ``pavonine_barbTangent`` (unless the prim authors one), 
 feather BSDF's barbule frame starts from, and the barb coordinate (length along the barb, place
 across it, barb id: ``pavonine_barbCoordinate``) its glitter blocks follow, with the ribbon's
 half width as authored (``pavonine_barbHalfWidth``: where the barbule pattern finds its edge).
-A feather's barbs (curves authoring ``primvars:pavonine_barbules`` 1) are tessellated
-:data:`~pavonine.materials.barbule_pattern.BARBULE_OVERLAP` wider than authored: their barbules
-reach past the authored edge into the neighbouring barb's, as interlocking barbules do, and
+A feather's barbs (curves authoring ``primvars:pavonine_barbules``, the barbules' reach past
+the authored edge as a share of the half width) are tessellated that much wider than authored:
+where the vane is closed their barbules reach into the neighbouring barb's, as interlocking
+barbules do, and
 fill the seam between barbs; each is three vertices across (edge, ramus, edge), its edges
 dropped :data:`~pavonine.materials.barbule_pattern.DROOP_DEG` below the ramus (the barbules
 droop from it: overlapping barbules of neighbouring barbs are layers at different heights, not
@@ -76,7 +77,9 @@ def ribbon_surface(
         )
     half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
     if _carries_barbules(prim):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
-        return _barb_surface(prim, samples, values["P"], normal, side, half, diag)
+        reach = values.get(BARBULES)
+        reach = np.zeros_like(half) if reach is None else np.clip(reach[:, :1], 0.0, MAX_REACH)
+        return _barb_surface(prim, samples, values["P"], normal, side, half, reach, diag)
     points = np.stack([values["P"] - side * half, values["P"] + side * half], 1).reshape(-1, 3)
     a, b = samples.pairs[:, 0], samples.pairs[:, 1]
     quads = np.stack([2 * a, 2 * a + 1, 2 * b + 1, 2 * b], axis=1)
@@ -85,18 +88,24 @@ def ribbon_surface(
     return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag, across)
 
 
+#: Barbs' ``primvars:pavonine_barbules``: their barbules' reach past the authored edge (share of
+#: the half width), at most this.
+BARBULES = "pavonine_barbules"
+MAX_REACH = 2.0
+
+
 def _carries_barbules(prim: Usd.Prim) -> bool:
     from pavonine.render.barbules import carries_barbules
 
     return carries_barbules(prim)
 
 
-def _barb_surface(prim, samples, centre, normal, side, half, diag) -> Surface | None:
+def _barb_surface(prim, samples, centre, normal, side, half, reach, diag) -> Surface | None:
     """A feather's barb: three vertices across each sample (edge, ramus, edge), the ribbon
-    :data:`~pavonine.materials.barbule_pattern.BARBULE_OVERLAP` wider than authored and its
-    edges dropped by ``tan(DROOP_DEG)`` of their distance from the ramus (the barbules droop from
-    it); the authored half width as ``pavonine_barbHalfWidth``."""
-    wide = half * (1.0 + barbule_pattern.BARBULE_OVERLAP)
+    ``1 + reach`` wider than authored (``primvars:pavonine_barbules``) and its edges dropped by
+    ``tan(DROOP_DEG)`` of their distance from the ramus (the barbules droop from it); the
+    authored half width as ``pavonine_barbHalfWidth``."""
+    wide = half * (1.0 + reach)
     drop = math.tan(math.radians(barbule_pattern.DROOP_DEG)) * wide
     left = centre - side * wide - normal * drop
     right = centre + side * wide - normal * drop

@@ -12,7 +12,7 @@ The four data inputs can also come as primvars (:data:`INPUT_PRIMVARS`; barbs ca
 vertex): a prim that has one reads it instead of the map (optional placeholders feeding the
 BSDF's ``<map>_primvar`` slots). On ribbons (:func:`on_ribbon`) the alpha mask and the
 displacement are left out, the barbs' geometry being the silhouette and the relief (on curves
-that author ``primvars:pavonine_barbules = 1``, the BSDF is ``pavonine_barbules``:
+that author ``primvars:pavonine_barbules``, the BSDF is ``pavonine_barbules``:
 :mod:`pavonine.render.barbules`, the ramus and barbules under each barb); the maps of
 inputs a ribbon does not carry as primvars are read at its ``pavonine_featherUV``, and without
 that the inputs take the schema's neutral values (warned).
