@@ -64,7 +64,7 @@ TIP_JITTER = 0.2
 BARBULE_OVERLAP = 0.8
 #: Each barbule's twist about its own axis (degrees, standard deviation of its normal's tilt):
 #: paper §2.1, barbules "twisted at the root". A parameter (the paper gives no angle); taken out
-#: of the crescent's spread θ0 = 15° (:func:`split_crescent`), which keeps 9° within a barbule.
+#: of the crescent's spread θ0 = 15° (:func:`split_crescent`), which keeps 6.5° within a barbule.
 TWIST_SIGMA_DEG = 13.5
 #: Ramus half width at the rachis and towards the barb's tip (µm), and the length over which it
 #: tapers (e-folding, µm). Not found in the sources searched; parameters.
