@@ -20,6 +20,9 @@ from pavonine.materials.dispersion import Dispersion
 from pavonine.materials.parameters import STACK_QUANTITIES, FeatherParameters
 
 PLUGIN_NAME = "pavonine_feather"
+#: The feather BSDF and the plugins built on it (the barbs' ``pavonine_barbules``): the nodes
+#: :func:`load_with_feathers` keeps a handle on.
+FEATHER_PLUGINS = (PLUGIN_NAME, "pavonine_barbules")
 DISPERSIONS = ("melanin", "keratin")
 DATA_MAPS = ("ocellar", "gradation", "angle", "melanin")
 PRIMVAR_SLOTS = {name: f"{name}_primvar" for name in DATA_MAPS}
@@ -169,7 +172,7 @@ def load_with_feathers(bsdf: dict) -> tuple[object, list]:
     feathers: list = []
 
     def load(node):
-        if isinstance(node, dict) and node.get("type") == PLUGIN_NAME:
+        if isinstance(node, dict) and node.get("type") in FEATHER_PLUGINS:
             feathers.append(mi.load_dict(node))
             return feathers[-1]
         if isinstance(node, dict):

@@ -50,6 +50,9 @@ SCHEMES = ("catmullClark", "loop", "bilinear", "none")  # USD's fallback first
 #: Tessellated barbs' own coordinate per vertex (:mod:`pavonine.render.curves.sampling`): length
 #: along the barb and across it (scene units; world-scaled here), and the barb's id.
 BARB_COORDINATE = "pavonine_barbCoordinate"
+#: Tessellated ribbons' half width at each vertex (scene units): where the barbule pattern
+#: (:mod:`pavonine.materials.barbule_pattern`) finds the ribbon's edge.
+BARB_HALF_WIDTH = "pavonine_barbHalfWidth"
 
 
 @dataclass
@@ -401,6 +404,10 @@ def build_triangle_mesh(
             scale = abs(np.linalg.det(matrix_usd[:3, :3])) ** (1.0 / 3.0)
             coordinate = np.zeros((len(out.positions), 3)) if values is None else values
             out.attributes[mi_name] = (coordinate * [scale, scale, 1.0]).astype(np.float32)
+        elif primvar_name == BARB_HALF_WIDTH:  # a length: scales with the transform
+            scale = abs(np.linalg.det(matrix_usd[:3, :3])) ** (1.0 / 3.0)
+            half = np.zeros((len(out.positions), 1)) if values is None else values[:, :1]
+            out.attributes[mi_name] = (half * scale).astype(np.float32)
         elif values is not None and values.shape[1] == 3:
             out.attributes[mi_name] = transform_directions(values, matrix_usd).astype(np.float32)
         else:

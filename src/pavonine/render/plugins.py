@@ -21,11 +21,17 @@ def variant_class(plugin: type, kind: str) -> type:
     """``plugin`` (a plain class whose methods are Mitsuba's interface of ``kind``, calling the
     base's ``__init__`` by name) as a subclass of the active variant's Mitsuba base class.
 
-    nanobind classes take one base only, so the plugin's namespace is copied onto a new class of
-    that base rather than mixed in."""
+    nanobind classes take one base only, so the plugin's namespace (with its plain bases', its own
+    winning) is copied onto a new class of that base rather than mixed in."""
     import mitsuba as mi
 
-    namespace = {k: v for k, v in vars(plugin).items() if k not in ("__dict__", "__weakref__")}
+    namespace: dict = {}
+    for klass in reversed(
+        plugin.__mro__[:-1]
+    ):  # a plain plugin built on another: both, its own last
+        namespace.update(
+            {k: v for k, v in vars(klass).items() if k not in ("__dict__", "__weakref__")}
+        )
     return type(plugin.__name__, (getattr(mi, BASES[kind]),), namespace)
 
 

@@ -30,3 +30,6 @@ INPUT_PRIMVARS = {
 }
 #: Uniform per barb curve: the barb's id (seeds its blocks; the curve's index when unauthored).
 BARB_ID_PRIMVAR = "pavonine_barbId"
+#: Per vertex on barbs: the curves carry barbules (the renderer's ramus and barbule pattern),
+#: reaching this share of the authored half width past the authored edge.
+BARBULES_PRIMVAR = "pavonine_barbules"

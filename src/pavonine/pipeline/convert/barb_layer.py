@@ -5,8 +5,10 @@ material that shows them in any viewer.
 with authored ``normals`` (vertex: the vane normal, so USD draws each curve as a ribbon facing
 it), ``widths`` (vertex, cm: the barb with its barbules' span) and vertex primvars sampled from the
 maps (names in :data:`PRIMVARS`, and ``primvars:pavonine_featherUV`` as on the sheet);
-``primvars:pavonine_barbId`` is uniform (one per barb) and ``primvars:displayColor`` (vertex)
-the baked preview colour. No ``pavonine_barbTangent``: on a curve the barb direction is its
+``primvars:pavonine_barbId`` is uniform (one per barb), ``primvars:displayColor`` (vertex)
+the baked preview colour, and ``primvars:pavonine_barbules`` (vertex) asks Pavonine to render
+each barb's ramus and barbules (:mod:`pavonine.render.barbules`), reaching that share of the half
+width past the authored edge (:func:`barbule_reach`). No ``pavonine_barbTangent``: on a curve the barb direction is its
 tangent ``dP/du`` (the renderer's contract, docs/render.md). The asset's root layer payloads it
 in the ``barbs`` variant of its ``geometry`` variant set (:mod:`pavonine.pipeline.convert.asset`).
 """
@@ -21,7 +23,12 @@ import numpy as np
 from pavonine.base.truncation import save_whole
 from pavonine.materials.parameters import FeatherParameters
 from pavonine.pipeline.convert.barb_curves import BarbCurves
-from pavonine.schemas.primvars import BARB_ID_PRIMVAR, FEATHER_UV_PRIMVAR, INPUT_PRIMVARS
+from pavonine.schemas.primvars import (
+    BARB_ID_PRIMVAR,
+    BARBULES_PRIMVAR,
+    FEATHER_UV_PRIMVAR,
+    INPUT_PRIMVARS,
+)
 
 BARBS = "Barbs"
 #: Preview material of the barbs (preview-purpose binding): their baked ``displayColor``.
@@ -34,6 +41,27 @@ PRIMVARS = {
     INPUT_PRIMVARS["angle"]: "barbule_angle_deg",
 }
 BARB_ID = BARB_ID_PRIMVAR
+#: Vertex float: the curves carry barbules (the renderer's ramus and barbule pattern), reaching
+#: this share of the authored half width past the authored edge (:func:`barbule_reach`).
+BARBULES = BARBULES_PRIMVAR
+#: Below this alpha coverage the barbs are free filaments: their barbules reach no further than
+#: the authored edge (:func:`barbule_reach`).
+LOOSE_COVERAGE = 0.75
+
+
+def barbule_reach(coverage: np.ndarray) -> np.ndarray:
+    """How far past a barb's authored edge its barbules reach (share of its half width):
+    :data:`~pavonine.materials.barbule_pattern.BARBULE_OVERLAP` where the vane is closed
+    (coverage 1: the eye's barbules interlock and overlap their neighbours'), none where the
+    coverage is below :data:`LOOSE_COVERAGE` and barbs hang loose as free filaments (Dakin et
+    al. 2016, PLoS ONE 11: e0152759), linear between: the free filaments cover the share of the
+    vane the sheet's alpha does."""
+    from pavonine.materials.barbule_pattern import BARBULE_OVERLAP
+
+    c = np.asarray(coverage, dtype=np.float64)
+    return BARBULE_OVERLAP * np.clip((c - LOOSE_COVERAGE) / (1.0 - LOOSE_COVERAGE), 0.0, 1.0)
+
+
 #: GGX roughness of the barbs' preview surface: the crescent spread is in the bake's colour.
 PREVIEW_ROUGHNESS = 0.45
 
@@ -104,6 +132,11 @@ def write_barbs_layer(path: Path, name: str, barbs: BarbCurves, geom: str = "Geo
         primvars.CreatePrimvar(primvar, kind, vertex).Set(array)
     primvars.CreatePrimvar(BARB_ID, Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.uniform).Set(
         Vt.IntArray.FromNumpy(barbs.barb_id.astype(np.int32))
+    )
+    # Pavonine renders the ramus and barbules under each barb (pavonine.render.barbules), their
+    # reach past the authored edge where the vane is closed.
+    primvars.CreatePrimvar(BARBULES, Sdf.ValueTypeNames.FloatArray, vertex).Set(
+        Vt.FloatArray.FromNumpy(barbule_reach(barbs.coverage).astype(np.float32))
     )
     if barbs.display_color is not None:
         display = curves.CreateDisplayColorPrimvar(vertex)

@@ -15,21 +15,33 @@ as vertex data, ``uniform`` per quad, ``constant`` as authored), so every shader
 primvar gets it (displayColor, displayOpacity, ``UsdPrimvarReader``, the feather's inputs); and
 the barb tangent T̂ as ``pavonine_barbTangent`` (unless the prim authors one), the direction the
 feather BSDF's barbule frame starts from, and the barb coordinate (length along the barb, place
-across it, barb id: ``pavonine_barbCoordinate``) its glitter blocks follow. A ribbon has no
-inside: it is shaded on both sides.
+across it, barb id: ``pavonine_barbCoordinate``) its glitter blocks follow, with the ribbon's
+half width as authored (``pavonine_barbHalfWidth``: where the barbule pattern finds its edge).
+A feather's barbs (curves authoring ``primvars:pavonine_barbules``, the barbules' reach past
+the authored edge as a share of the half width) are tessellated that much wider than authored:
+where the vane is closed their barbules reach into the neighbouring barb's, as interlocking
+barbules do, and
+fill the seam between barbs; each is three vertices across (edge, ramus, edge), its edges
+dropped :data:`~pavonine.materials.barbule_pattern.DROOP_DEG` below the ramus (the barbules
+droop from it: overlapping barbules of neighbouring barbs are layers at different heights, not
+one plane, which a ray passing a gap would start past). A ribbon has no inside: it is shaded on both sides.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from pavonine.materials import barbule_pattern
 from pavonine.render import attributes
 from pavonine.render.curves.bases import CurveTopology, read_curves
 from pavonine.render.curves.sampling import STEPS, fits, sample_curves, strip_surface
 from pavonine.render.diagnostics import Diagnostics
-from pavonine.render.mesh import Surface
+from pavonine.render.mesh import BARB_HALF_WIDTH, Surface
 from pavonine.render.primvars import Primvar, read_primvar
+from pavonine.schemas.primvars import BARBULES_PRIMVAR
 
 _NORMALS = "normals"
 
@@ -65,12 +77,53 @@ def ribbon_surface(
             "the curve, or no curve direction; the ribbon narrows to nothing there",
         )
     half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
+    if _carries_barbules(prim):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
+        reach = values.get(BARBULES)
+        reach = np.zeros_like(half) if reach is None else np.clip(reach[:, :1], 0.0, MAX_REACH)
+        return _barb_surface(prim, samples, values["P"], normal, side, half, reach, diag)
     points = np.stack([values["P"] - side * half, values["P"] + side * half], 1).reshape(-1, 3)
     a, b = samples.pairs[:, 0], samples.pairs[:, 1]
     quads = np.stack([2 * a, 2 * a + 1, 2 * b + 1, 2 * b], axis=1)
     # across the barb counter-clockwise seen from N′ is −S: P − S·w/2 at +w/2
     across = (half * np.array([[1.0, -1.0]])).ravel()
     return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag, across)
+
+
+#: Barbs' ``primvars:pavonine_barbules``: their barbules' reach past the authored edge (share of
+#: the half width), at most this.
+BARBULES = BARBULES_PRIMVAR
+MAX_REACH = 2.0
+
+
+def _carries_barbules(prim: Usd.Prim) -> bool:
+    from pavonine.render.barbules import carries_barbules
+
+    return carries_barbules(prim)
+
+
+def _barb_surface(prim, samples, centre, normal, side, half, reach, diag) -> Surface | None:
+    """A feather's barb: three vertices across each sample (edge, ramus, edge), the ribbon
+    ``1 + reach`` wider than authored (``primvars:pavonine_barbules``) and its edges dropped by
+    ``tan(DROOP_DEG)`` of their distance from the ramus (the barbules droop from it); the
+    authored half width as ``pavonine_barbHalfWidth``."""
+    wide = half * (1.0 + reach)
+    drop = math.tan(math.radians(barbule_pattern.DROOP_DEG)) * wide
+    left = centre - side * wide - normal * drop
+    right = centre + side * wide - normal * drop
+    points = np.stack([left, centre, right], 1).reshape(-1, 3)
+    a, b = samples.pairs[:, 0], samples.pairs[:, 1]
+    quads = np.concatenate(
+        [
+            np.stack([3 * a, 3 * a + 1, 3 * b + 1, 3 * b], axis=1),
+            np.stack([3 * a + 1, 3 * a + 2, 3 * b + 2, 3 * b + 1], axis=1),
+        ],
+        axis=1,
+    ).reshape(-1, 4)
+    across = (wide * np.array([[1.0, 0.0, -1.0]])).ravel()
+    surface = strip_surface(prim, samples, points, quads, np.repeat(normal, 3, 0), diag, across)
+    if surface is not None:
+        surface.primvars[BARB_HALF_WIDTH] = Primvar(np.repeat(half, 3, axis=0), "vertex")
+    return surface
 
 
 def _normals(

@@ -11,7 +11,9 @@ legacy names (``pavonine:featherUV``, ``pavonine:barbTangent``) on meshes that o
 The four data inputs can also come as primvars (:data:`INPUT_PRIMVARS`; barbs carry them per
 vertex): a prim that has one reads it instead of the map (optional placeholders feeding the
 BSDF's ``<map>_primvar`` slots). On ribbons (:func:`on_ribbon`) the alpha mask and the
-displacement are left out, the barbs' geometry being the silhouette and the relief; the maps of
+displacement are left out, the barbs' geometry being the silhouette and the relief (on curves
+that author ``primvars:pavonine_barbules``, the BSDF is ``pavonine_barbules``:
+:mod:`pavonine.render.barbules`, the ramus and barbules under each barb); the maps of
 inputs a ribbon does not carry as primvars are read at its ``pavonine_featherUV``, and without
 that the inputs take the schema's neutral values (warned).
 """
@@ -143,14 +145,21 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
         primvar = api.FindPrimvarWithInheritance(name)
         return bool(primvar) and primvar.HasValue()
 
+    from pavonine.render import barbules
     from pavonine.render.feather_encoding import BARB_COORDINATE_ATTRIBUTE
-    from pavonine.render.mesh import BARB_COORDINATE
+    from pavonine.render.mesh import BARB_COORDINATE, BARB_HALF_WIDTH
 
     core = dict(_feather_node(spec.bsdf), barb_coordinates=True)  # glitter follows the barbs
     attributes = {**spec.attributes, BARB_COORDINATE: BARB_COORDINATE_ATTRIBUTE}
+    suffix = "ribbon"
+    if barbules.carries_barbules(prim):  # the barbs' ramus and barbules (render.barbules)
+        barbules.register()
+        core["type"] = barbules.PLUGIN_NAME
+        attributes[BARB_HALF_WIDTH] = barbules.HALF_WIDTH_ATTRIBUTE
+        suffix = "barbules"
     spec = replace(spec, attributes=attributes)
     if carried(FEATHER_UV) or carried(LEGACY_PRIMVARS[FEATHER_UV]):
-        return replace(spec, key=f"{spec.key}#ribbon", bsdf=core, displacement=None)
+        return replace(spec, key=f"{spec.key}#{suffix}", bsdf=core, displacement=None)
     lacking = [
         INPUT_PRIMVARS[name]
         for name in DATA_MAPS
@@ -165,7 +174,7 @@ def on_ribbon(spec: MaterialSpec, prim: Usd.Prim, diag: Diagnostics) -> Material
         )
     core = {k: v for k, v in core.items() if k not in DATA_MAPS}
     return replace(
-        spec, key=f"{spec.key}#ribbon-no-uv", bsdf=core, uv_primvar="st", displacement=None
+        spec, key=f"{spec.key}#{suffix}-no-uv", bsdf=core, uv_primvar="st", displacement=None
     )
 
 
