@@ -41,7 +41,7 @@ def _lobe(wavelength=LAMBDA):
 
 GRAINS = glitter.grain_count(TABLE1.block_length_um, TABLE1.rod_length_um)
 SPREAD, WITHIN, TOTAL, SPECKLE = _lobe()
-MODEL = glitter.count_model(SPREAD, WITHIN, GRAINS)
+MODEL = glitter.count_model(SPREAD, WITHIN, SPECKLE, GRAINS)
 ALPHA_Y = barbule.SQRT2 * math.tan(CONSTANTS.crescent_sigma)
 
 
@@ -135,8 +135,9 @@ def test_the_counts_vary_as_much_as_the_blocks_they_stand_for(level):
     """An independent method: the lobe of a cell of 4^level blocks summed block by block (each
     block's tilt and grains, :func:`glitter.block_state`) against the cell's counts, over 4 000
     cells each, at the lobe's peak and 1 and 2 σ out. Same mean, and the spread from cell to cell
-    (what makes the sparkle) within 30 %: the counts are the few-block statistics, not noise of
-    another size."""
+    (what makes the sparkle) within 15 % (0.95–1.09 measured; 0.72–0.83 before a block's grains
+    were counted as clustered about its tilt, :func:`glitter.count_model`): the counts are the
+    few-block statistics, not noise of another size."""
     cells = np.arange(4000, dtype=np.uint64)
     for slope in (0.0, TOTAL, 2.0 * TOTAL):
         explicit = _explicit_cells(level, slope, cells)
@@ -152,7 +153,7 @@ def test_the_counts_vary_as_much_as_the_blocks_they_stand_for(level):
         assert explicit.mean() == pytest.approx(smooth, rel=0.06)
         assert counted.mean() == pytest.approx(smooth, rel=0.06)
         ratio = counted.std() / explicit.std()
-        assert 0.7 < ratio < 1.3, (level, slope, ratio, counted.std(), explicit.std())
+        assert 0.85 < ratio < 1.15, (level, slope, ratio, counted.std(), explicit.std())
 
 
 def test_the_level_follows_the_footprint_and_blends_continuously():

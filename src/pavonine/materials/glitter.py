@@ -211,12 +211,12 @@ def block_ndf(
 # A pixel that covers n blocks holds the *average* of their lobes, D_n(h) = (1/n) Σ_i D_i(h). One
 # block per sample (above) is an unbiased but noisy estimate of it: at the hero view a pixel holds
 # hundreds of blocks. The discrete-microfacet renderers (Jakob et al. 2014, "Discrete stochastic
-# microfacet models", §4–5; Zirr & Kaplanyan 2016, "Real-time rendering of procedural multiscale
-# materials", §4; Chermain et al. 2020, "Procedural physically based BRDF for real-time rendering
-# of glints", §4; Deliot & Belcour 2023, "Real-time rendering of glinty appearances using
-# distributed binomial laws on anisotropic grids", §3) evaluate D_n directly: the footprint is
-# approximated by a cell of a grid whose cells hold about as many facets as the footprint (the
-# level of detail from the ray differentials), and the *number* of a cell's facets whose normals
+# microfacet models", ACM TOG 33(4); Zirr & Kaplanyan 2016, "Real-time rendering of procedural
+# multiscale materials", I3D; Chermain et al. 2020, "Procedural physically based BRDF for
+# real-time rendering of glints", CGF 39(7); Deliot & Belcour 2023, "Real-time rendering of
+# glinty appearances using distributed binomial laws on anisotropic grids", HPG) evaluate D_n
+# directly: the footprint is approximated by a cell of a grid whose cells hold about as many
+# facets as the footprint (the level of detail from the ray differentials), and the *number* of a cell's facets whose normals
 # fall in a small bin of directions is drawn deterministically, from a hash of the cell and the
 # bin, from its binomial law (Poisson for a rare bin). Here a facet is a speckle grain, the bins
 # are slices of the grains' places along the barbule, and the bins are blended by the posterior
@@ -230,9 +230,9 @@ def block_ndf(
 # (the product of two Gaussians; bins in units of σ_μ, edges c_b = b Δu). With X_b = N_b / (M P_b)
 # the cell's count in bin b over its expectation (P_b = Φ(c_b+1) − Φ(c_b), M grains in the cell),
 # the cell's lobe along the barbule is N(x; 0, σ_t²) Σ_b ω_b(x) X_b, and E[X_b] = 1 gives the smooth
-# lobe on average over cells. A grain's shares are Dirichlet(1, …, 1) over its block's G grains
-# (Σ_k E[w_k²] = 2/(G + 1)), so for the variance of the sum a block counts as (G + 1)/2 equal,
-# independent grains: M = n (G + 1)/2 for a cell of n blocks.
+# lobe on average over cells. M = n m for a cell of n blocks, m the independent, equal grains a
+# block counts as for the variance of the sum over its blocks (:func:`count_model`: 1.7 for the
+# 5 grains of a 25 µm block of 5 µm rods).
 
 #: Finest cell above one block: 2 × 2 blocks (level 1); the coarsest, 2^MAX_LEVEL blocks a side.
 MAX_LEVEL = 12
@@ -240,7 +240,8 @@ MAX_LEVEL = 12
 COUNT_BINS = 5
 #: Below this expected count a bin's count is drawn from its Poisson law (inversion over
 #: :data:`POISSON_TERMS` terms), above it from a normal law clamped at 0 and rescaled to its exact
-#: mean (Zirr & Kaplanyan 2016 §4.2 and Deliot & Belcour 2023 §3.2 take the normal law throughout).
+#: mean (Zirr & Kaplanyan 2016 and Deliot & Belcour 2023 approximate the binomial law by a normal
+#: one throughout; a rare bin's count is far from normal).
 POISSON_SWITCH = 3.0
 POISSON_TERMS = 12
 #: A bin expected to hold fewer grains than this (the far tail of the lobe) keeps its mean, X = 1.
@@ -257,18 +258,42 @@ def normal_cdf(x: Any, ops: Any = NUMPY) -> Any:
 
 class CountModel(NamedTuple):
     """Material-wide numbers of the counts: the bin width ``Δu`` (units of σ_μ, twice a grain's
-    posterior deviation ``r`` at 550 nm, so a grain's light spans about three bins) and the grains
-    a block counts as, ``(G + 1)/2``."""
+    posterior deviation ``r`` at 550 nm, so a grain's light spans about three bins) and the
+    independent, equal grains a block counts as (:func:`count_model`)."""
 
     bin_width: float
     grains_per_block: float
 
 
-def count_model(spread_550: float, within_550: float, grains: int) -> CountModel:
-    """The :class:`CountModel` for the grains' places' deviation ``spread_550`` (σ_μ) and one
-    grain's ``within_550`` (s_w), slopes at 550 nm."""
+def count_model(
+    spread_550: float, within_550: float, speckle_550: float, grains: int
+) -> CountModel:
+    """The :class:`CountModel` for the grains' places' deviation ``spread_550`` (σ_μ), one grain's
+    ``within_550`` (s_w) and the grains' deviation about their block's tilt ``speckle_550`` (p),
+    slopes at 550 nm, and ``grains`` (G) per block.
+
+    The counts must vary from cell to cell as the sum over the cell's blocks does. For a sum of
+    Gaussian grains of deviation s_w at density ρ(x) the variance at x is
+    ``E[w²] ρ(x) / (2√π s_w)`` per grain (Campbell's theorem); a block's G grains share its tilt,
+    so per block it is ``ρ(x) / (2√π s_w) · c`` with
+    ``c = Σ_k E[w_k²] + Σ_{k≠l} E[w_k w_l] s_w / √(s_w² + p²)
+    = 2/(G + 1) + (G − 1)/(G + 1) · s_w/√(s_w² + p²)`` (Dirichlet(1, …, 1) shares: E[w_k²] =
+    2/(G(G + 1)), E[w_k w_l] = 1/(G(G + 1)); two grains of a block lie a normal of variance 2p²
+    apart). Counting in bins of width Δ blended by the posterior weights gives
+    ``Σ_b ω_b² / (M Δ ρ)``, which is ``1 / (2√π r M ρ)`` times ``f``, the mean of ``Σ_b ω_b²``
+    over where the grain falls in its bin divided by its continuum value ``Δ/(2√π r)``. So a block
+    counts as ``f / c`` independent, equal grains."""
     r = within_550 / math.hypot(spread_550, within_550)
-    return CountModel(2.0 * r, 0.5 * (grains + 1))
+    width = 2.0 * r
+    c = 2.0 / (grains + 1) + (grains - 1) / (grains + 1) * within_550 / math.hypot(
+        within_550, speckle_550
+    )
+    offsets = (NUMPY.asarray(range(200)) + 0.5) / 200.0
+    edges = NUMPY.asarray(range(-8, 10))[:, None] - offsets[None, :]  # in bins, about the grain
+    mass = normal_cdf(edges * (width / r))
+    omega2 = ((mass[1:] - mass[:-1]) ** 2).sum(axis=0).mean()
+    f = float(omega2 / (width / (2.0 * math.sqrt(math.pi) * r)))
+    return CountModel(width, f / c)
 
 
 def footprint_level(area_um2: Any, block_length_um: float, barbule_width_um: float, ops=NUMPY):
@@ -381,7 +406,8 @@ class Footprint(NamedTuple):
 
 def level_weights(level: Any, ops: Any = NUMPY) -> tuple[Any, Any, Any, Any, Any]:
     """``(block_weight, coarse, w_coarse, fine, w_fine)``: a continuous level ℓ between two whole
-    levels k ≤ ℓ < k + 1 blends them linearly (Zirr & Kaplanyan 2016 §4.3); level 0 is the block
+    levels k ≤ ℓ < k + 1 blends them linearly (as Zirr & Kaplanyan 2016 blend their levels of
+    detail); level 0 is the block
     itself. ``fine`` ≥ 1 is level k (weight ``w_fine``, 0 when k = 0), ``coarse`` = k + 1."""
     clamped = ops.minimum(ops.maximum(level, 0.0), MAX_LEVEL - 1e-3)
     k = ops.floor(clamped)

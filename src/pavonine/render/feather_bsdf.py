@@ -149,7 +149,9 @@ class FeatherBSDF:
                 math.hypot(math.sqrt(self.glitter) * math.tan(self.constants.block_sigma), speckle)
             )
             self.count_total = float(math.hypot(self.count_spread, within))
-            self.count_model = glitter.count_model(self.count_spread, float(within), self.grains)
+            self.count_model = glitter.count_model(
+                self.count_spread, float(within), float(speckle), self.grains
+            )
         lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
         sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
         self.m_components = [
