@@ -25,8 +25,13 @@ tables bound after the scene is built (:mod:`pavonine.render.instance_primvars`)
 With ``glitter`` > 0 each shading point lies on one barbule block (:mod:`pavonine.materials.glitter`)
 whose tilt offsets its lobe: the block comes from the feather coordinate ``si.uv`` scaled to µm by
 the surface's ``|dp/du|``, ``|dp/dv|`` and ``world_unit_um`` (µm per scene unit), turned into the
-barbule axis. Glossy sampling then draws the block's shifted Beckmann slopes (all normals, not
-only the visible ones); at ``glitter`` 0 nothing of this runs and the BSDF is the smooth one.
+barbule axis. Where the integrator gave the interaction the pixel's footprint (``si.duv_dx``,
+``si.duv_dy``: :func:`pavonine.render.integrator.uv_partials`), the lobe is what the footprint
+holds (:class:`pavonine.materials.glitter.Footprint`): the block's, blended by the level of detail
+with the counts of the cells of about as many blocks as the footprint covers. Glossy sampling
+draws the block's shifted Beckmann slopes (all normals, not only the visible ones) with the
+block's weight, the smooth lobe's visible normals otherwise; at ``glitter`` 0 nothing of this
+runs and the BSDF is the smooth one.
 
 The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
 detail); :func:`~pavonine.render.feather_encoding.feather_bsdf_dict` builds that nesting
