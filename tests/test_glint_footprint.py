@@ -333,3 +333,63 @@ def test_the_path_loops_uv_partials_are_mitsubas():
     for a, b in zip(ours, (np.array(si.duv_dx), np.array(si.duv_dy)), strict=True):
         assert np.abs(b).max() > 1e-3
         np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-7)
+
+
+def test_the_renderers_footprint_is_the_analysis_models():
+    """The plugin with a footprint (level 2.5) gives what the NumPy model gives for the same
+    cells and counts (:func:`glitter.footprint_at` on the NumPy side of the same functions): one
+    implementation, float32 against float64 (a point a hair from a cell or bin edge may differ)."""
+    from pavonine.materials import optics
+
+    rng = np.random.default_rng(3)
+    n = 4000
+    wi, wo = _directions(rng, n), _directions(rng, n)
+    lam = rng.uniform(380.0, 780.0, size=(n, 4))
+    uv = rng.uniform(0.0, 0.05, size=(n, 2))
+    angle = 0.2
+    duv = _duv_for(2.5)
+    bsdf = mi.load_dict(_plugin_dict(share=0.8, angle=angle))
+    si = _sheet(wi, lam, uv, duv)
+    si.sh_frame = mi.Frame3f(
+        mi.Vector3f(1.0, 0.0, 0.0), mi.Vector3f(0.0, 1.0, 0.0), mi.Vector3f(0.0, 0.0, 1.0)
+    )
+    value = np.array(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(*wo.T)))
+
+    unit = feather_bsdf.WORLD_UNIT_UM
+    along, across, step = glitter.sheet_coordinates(
+        uv[:, 0] * unit, uv[:, 1] * unit, angle * math.pi
+    )
+    barbule_index, block_index = glitter.block_cell(
+        along, across, TABLE1.block_length_um, TABLE1.barbule_width_um
+    )
+    seed = glitter.lowbias32(TABLE1.glitter_seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
+    block = glitter.block_state(
+        1.0, CONSTANTS.block_sigma, barbule_index, block_index, seed, GRAINS
+    )
+    c, s = math.cos(angle * math.pi), math.sin(angle * math.pi)
+    rot = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    wi_b, wo_b = wi @ rot.T, wo @ rot.T
+    h = wi_b + wo_b
+    level = glitter.footprint_level(
+        np.full(n, (duv * unit) ** 2), TABLE1.block_length_um, TABLE1.barbule_width_um
+    )
+    fp = glitter.footprint_at(
+        block,
+        level,
+        along,
+        across,
+        seed,
+        -h[:, 0] / np.maximum(h[:, 2], 1e-6),
+        MODEL,
+        SPREAD,
+        math.hypot(SPREAD, WITHIN),
+        TABLE1.block_length_um,
+        TABLE1.barbule_width_um,
+    )
+    model = optics.model_for(TABLE1)
+    expected = np.stack(
+        [model.brdf(wi_b, wo_b, lam[:, k], 3, 0.5, 0.8, block=fp) * wo[:, 2] for k in range(4)]
+    )
+    assert np.ptp(np.array([r for cell in fp.cells for r in cell.ratios])) > 1.0
+    close = np.all(np.isclose(value, expected, rtol=3e-3, atol=3e-5), axis=0)
+    assert close.mean() > 0.99, np.flatnonzero(~close)[:10]
