@@ -7,6 +7,9 @@
    ``glitter`` 1 (discrete barbule blocks), printed as its ratio to the same material at
    glitter 0 (target ≤ 1.3).
 2. 1024×1024 at 256 spp with the feather BSDF; prints seconds (target ≤ 60 s on 2 cores).
+3. The hero view at its own 512×768, 64 spp, sampler seeds 0 and 1, glitter 0 and 1: the
+   samples glitter 1 needs to reach glitter 0's seed-to-seed noise at 64 spp (noise ∝ 1/√spp:
+   64 × the ratio of the two noises squared, :func:`bench_glints.seed_noise`; target ≤ 1.3×).
 
 Each configuration is rendered once to warm the JIT kernel cache, then timed best of 3 at
 512×512, the configurations taking turns in each round (the machine is shared, so single
@@ -126,6 +129,24 @@ def as_authored():
     yield
 
 
+def hero_samples(spp: int) -> tuple[float, float]:
+    """``(samples, ratio)``: the samples glitter 1 needs at the hero view to reach glitter 0's
+    seed-to-seed noise at ``spp``, and their ratio to ``spp``."""
+    import tempfile
+
+    from bench_glints import hero_stage, render, seed_noise, zones
+
+    folder = Path(tempfile.mkdtemp(prefix="bench_render_"))
+    noise, mask = {}, None
+    for g in (0.0, 1.0):
+        stage = hero_stage(folder / f"hero{g}.usda", g)
+        (a, uv), (b, _) = render(stage, spp, 0), render(stage, spp, 1)
+        mask = zones(uv) >= 0 if mask is None else mask
+        noise[g] = seed_noise(a, b, mask)
+    ratio = (noise[1.0] / noise[0.0]) ** 2
+    return spp * ratio, ratio
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip the 1024×1024 × 256 spp render")
@@ -149,6 +170,11 @@ def main() -> None:
     print(
         f"512x512 @ 64 spp: glitter 1 {glitter:.2f} s; ratio {glitter / authored:.2f} to glitter 0 "
         "(target <= 1.3)"
+    )
+    samples, ratio = hero_samples(64)
+    print(
+        f"hero 512x768 @ 64 spp, seeds 0/1: glitter 1 needs {samples:.0f} spp to reach glitter "
+        f"0's noise at 64 spp ({ratio:.2f}x, target <= 1.3x)"
     )
     if not args.quick:
         big = timed_round_robin({"as authored": as_authored}, (1024, 1024), 256, 1)["as authored"]

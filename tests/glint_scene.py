@@ -29,9 +29,11 @@ def closeup_stage(
     uv: bool = False,
     glitter_seed: int | None = None,
     geometry: str | None = None,
+    distance_cm: float = 3.0,
 ) -> Path:
     """Write the close-up stage at ``path`` (referencing the shipped eye feather; ``geometry``:
-    its ``geometry`` variant, ``sheet`` or ``barbs``, else the asset's default)."""
+    its ``geometry`` variant, ``sheet`` or ``barbs``, else the asset's default; ``distance_cm``:
+    the camera's distance, the lens still framing ``field_mm`` there)."""
     stage = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageMetersPerUnit(stage, 0.01)
     UsdGeom.SetStageUpAxis(stage, "Y")
@@ -45,7 +47,6 @@ def closeup_stage(
     material.CreateAttribute("pavonine:glitter", Sdf.ValueTypeNames.Float).Set(float(glitter))
     if glitter_seed is not None:
         material.CreateAttribute("pavonine:glitterSeed", Sdf.ValueTypeNames.Int).Set(glitter_seed)
-    distance_cm = 3.0
     camera = UsdGeom.Camera.Define(stage, "/World/Camera")
     camera.CreateHorizontalApertureAttr(24.0)
     camera.CreateVerticalApertureAttr(24.0)

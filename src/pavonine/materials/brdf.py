@@ -154,7 +154,8 @@ def structural_brdf(
 
     Two-sided: light from below the vane is treated as the mirror image from above. Zero when
     ``ω_i`` and ``ω_o`` lie on opposite sides. ``block``: the tilt and speckle grains of the block
-    the point lies on (:class:`pavonine.materials.glitter.Block`); ``None`` (or glitter 0) is the smooth
+    the point lies on (:class:`pavonine.materials.glitter.Block`), or what the pixel's footprint holds
+    there (:class:`pavonine.materials.glitter.Footprint`); ``None`` (or glitter 0) is the smooth
     average over blocks. Masking is the whole microsurface's (Smith G of the smooth lobe), so the
     average over blocks is exactly the smooth BRDF.
     """
@@ -190,7 +191,12 @@ def structural_brdf(
             barbule.diffraction_sigma(constants.block_length_nm, wavelength_nm),
             ops,
         )
-        d = glitter.block_ndf(hx, hy, hz, barbule.SQRT2 * within, alpha_y, block, speckle, ops)
+        if isinstance(block, glitter.Footprint):
+            d = glitter.footprint_ndf(
+                hx, hy, hz, alpha_x, alpha_y, within, speckle, constants, block, ops
+            )
+        else:
+            d = glitter.block_ndf(hx, hy, hz, barbule.SQRT2 * within, alpha_y, block, speckle, ops)
     g = barbule.beckmann_smith_g1(ix, iy, iz, cos_d, alpha_x, alpha_y, ops)
     g = g * barbule.beckmann_smith_g1(
         ox, oy, oz, ox * hx + oy * hy + oz * hz, alpha_x, alpha_y, ops

@@ -25,8 +25,13 @@ tables bound after the scene is built (:mod:`pavonine.render.instance_primvars`)
 With ``glitter`` > 0 each shading point lies on one barbule block (:mod:`pavonine.materials.glitter`)
 whose tilt offsets its lobe: the block comes from the feather coordinate ``si.uv`` scaled to µm by
 the surface's ``|dp/du|``, ``|dp/dv|`` and ``world_unit_um`` (µm per scene unit), turned into the
-barbule axis. Glossy sampling then draws the block's shifted Beckmann slopes (all normals, not
-only the visible ones); at ``glitter`` 0 nothing of this runs and the BSDF is the smooth one.
+barbule axis. Where the integrator gave the interaction the pixel's footprint (``si.duv_dx``,
+``si.duv_dy``: :func:`pavonine.render.integrator.uv_partials`), the lobe is what the footprint
+holds (:class:`pavonine.materials.glitter.Footprint`): the block's, blended by the level of detail
+with the counts of the cells of about as many blocks as the footprint covers. Glossy sampling
+draws the block's shifted Beckmann slopes (all normals, not only the visible ones) with the
+block's weight, the smooth lobe's visible normals otherwise; at ``glitter`` 0 nothing of this
+runs and the BSDF is the smooth one.
 
 The alpha map becomes a ``mask`` wrapper and the displacement map a ``bumpmap`` wrapper (shading
 detail); :func:`~pavonine.render.feather_encoding.feather_bsdf_dict` builds that nesting
@@ -142,6 +147,15 @@ class FeatherBSDF:
             self.block_alpha_x = float(barbule.SQRT2 * math.hypot(within, speckle / 3.0))
             self.grains = glitter.grain_count(
                 self.params.block_length_um, self.params.rod_length_um
+            )
+            # The footprint's counts (glitter.cell_counts): the grains' places' deviation σ_μ
+            # and the whole lobe's σ_t at 550 nm choose the bins; the bins are λ-independent.
+            self.count_spread = float(
+                math.hypot(math.sqrt(self.glitter) * math.tan(self.constants.block_sigma), speckle)
+            )
+            self.count_total = float(math.hypot(self.count_spread, within))
+            self.count_model = glitter.count_model(
+                self.count_spread, float(within), float(speckle), self.grains
             )
         lobes = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
         sided = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
@@ -275,10 +289,22 @@ class FeatherBSDF:
         share = self._map("melanin", si, active)
         scale = self._per_instance("structural_scale", si, active)
         share = dr.clip(share if scale is None else share * scale, 0.0, 1.0)
-        block = None
+        glint = None
         if self.glitter > 0.0:
-            block = self._block_slope(si, from_barb if self.barb_coordinates else angle, active)
-        return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, block
+            glint = self._block_slope(si, from_barb if self.barb_coordinates else angle, active)
+        return dr.cos(angle), dr.sin(angle), stacks[0], stacks[1], share, glint
+
+    def _footprint_level(self, si):
+        """Level of detail of the pixel's footprint at ``si`` (:func:`glitter.footprint_level`):
+        its area from the uv partials the integrator computed from the camera ray's
+        differentials (``si.duv_dx``, ``si.duv_dy``; zero elsewhere: one block), in µm²."""
+        dp_dx = si.dp_du * si.duv_dx.x + si.dp_dv * si.duv_dx.y
+        dp_dy = si.dp_du * si.duv_dy.x + si.dp_dv * si.duv_dy.y
+        area = dr.norm(dr.cross(dp_dx, dp_dy)) * (self.world_unit_um * self.world_unit_um)
+        area = dr.select(dr.isfinite(area), area, 0.0)
+        return glitter.footprint_level(
+            area, self.params.block_length_um, self.params.barbule_width_um, self.material.ops
+        )
 
     def _block_slope(self, si, angle, active):
         """The block under ``si`` (:mod:`pavonine.materials.glitter`): its tilt and grains.
@@ -316,7 +342,7 @@ class FeatherBSDF:
         seed = glitter.lowbias32(seed ^ ((step * 0x9E3779B1) & glitter.MASK32))
         if barb is not None:
             seed = glitter.lowbias32(seed ^ ((barb * 0x2545F491) & glitter.MASK32))
-        return glitter.block_state(
+        block = glitter.block_state(
             self.glitter,
             self.constants.block_sigma,
             barbule_index,
@@ -324,6 +350,28 @@ class FeatherBSDF:
             seed,
             self.grains,
             ops,
+        )
+        return block, along, across, seed, self._footprint_level(si)
+
+    def _footprint(self, glint, wi, wo):
+        """What the pixel's footprint holds for the barbule-frame pair (``wi``, ``wo``): the
+        block and the cells' counts around the half-vector (:func:`glitter.footprint_at`)."""
+        block, along, across, seed, level = glint
+        h = wi + wo
+        slope_x = -h.x / dr.maximum(h.z, 1e-6)
+        return glitter.footprint_at(
+            block,
+            level,
+            along,
+            across,
+            seed,
+            slope_x,
+            self.count_model,
+            self.count_spread,
+            self.count_total,
+            self.params.block_length_um,
+            self.params.barbule_width_um,
+            self.material.ops,
         )
 
     @staticmethod
@@ -336,23 +384,29 @@ class FeatherBSDF:
 
     def _brdf(self, si, wi, wo, state, active):
         """Spectral BRDF value (no cosine) for barbule-frame directions."""
-        _, _, long_stack, short_stack, share, block = state
+        _, _, long_stack, short_stack, share, glint = state
+        block = None if glint is None else self._footprint(glint, wi, wo)
         out = [
             self.material.brdf(wi, wo, si.wavelengths[k], long_stack, short_stack, share, block)
             for k in range(len(si.wavelengths))
         ]
         return mi.Spectrum(out)
 
-    def _lobe_pdf(self, wi, wo, share, block=None):
-        """Mixture density of the two sampling strategies (barbule frame, upper hemisphere)."""
+    def _lobe_pdf(self, wi, wo, share, glint=None):
+        """Mixture density of the sampling strategies (barbule frame, upper hemisphere): the
+        smooth lobe's visible normals, with glitter the block's lobes by the footprint's block
+        weight and the smooth lobe by the rest."""
         m = dr.normalize(wi + wo)
-        if block is None:
-            distr = mi.MicrofacetDistribution(
-                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+        distr = mi.MicrofacetDistribution(
+            mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+        )
+        glossy = distr.pdf(wi, m)
+        if glint is not None:
+            block_weight = glitter.level_weights(glint[4], self.material.ops)[0]
+            glossy = (
+                block_weight * self._block_normal_pdf(m, glint[0]) + (1.0 - block_weight) * glossy
             )
-            glossy = distr.pdf(wi, m) / (4.0 * dr.abs(dr.dot(wo, m)))
-        else:
-            glossy = self._block_normal_pdf(m, block) / (4.0 * dr.abs(dr.dot(wo, m)))
+        glossy = glossy / (4.0 * dr.abs(dr.dot(wo, m)))
         diffuse = mi.warp.square_to_cosine_hemisphere_pdf(wo)
         pdf = share * dr.select(dr.dot(wo, m) > 0, glossy, 0.0) + (1.0 - share) * diffuse
         return dr.select((wi.z > 0) & (wo.z > 0), pdf, 0.0)
@@ -422,23 +476,27 @@ class FeatherBSDF:
         wi_b = self._to_barbule(si.wi, c, s)
         wi_b = mi.Vector3f(wi_b.x, wi_b.y, wi_b.z * sign)
         glossy = sample1 < share
-        block = state[5]
-        if block is None:
-            distr = mi.MicrofacetDistribution(
-                mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
-            )
-            m, _ = distr.sample(wi_b, sample2)
-        else:
+        glint = state[5]
+        distr = mi.MicrofacetDistribution(
+            mi.MicrofacetType.Beckmann, self.alpha_x_sampling, self.alpha_y, True
+        )
+        m, _ = distr.sample(wi_b, sample2)
+        from_block = mi.Bool(False)
+        if glint is not None:
+            # the block's lobes with the footprint's block weight, else the smooth lobe
+            block_weight = glitter.level_weights(glint[4], self.material.ops)[0]
             u = sample1 / dr.maximum(share, 1e-30)
-            m = self._sample_block_normal(u, sample2, block)
+            from_block = u < block_weight
+            u_block = u / dr.maximum(block_weight, 1e-30)
+            m = dr.select(from_block, self._sample_block_normal(u_block, sample2, glint[0]), m)
         wo_glossy = mi.reflect(wi_b, m)
         wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
         wo_b = dr.select(glossy, wo_glossy, wo_diffuse)
-        pdf = self._lobe_pdf(wi_b, wo_b, share, block)
+        pdf = self._lobe_pdf(wi_b, wo_b, share, glint)
         value = self._brdf(si, wi_b, wo_b, state, active) * dr.abs(wo_b.z)
         ok = active & (wi_b.z > 0) & (wo_b.z > 0) & (pdf > 0)
-        if block is not None:
-            ok &= ~glossy | (dr.dot(wi_b, m) > 0.0)
+        if glint is not None:
+            ok &= ~(glossy & from_block) | (dr.dot(wi_b, m) > 0.0)
 
         bs = dr.zeros(mi.BSDFSample3f)
         wo_local = self._from_barbule(wo_b, c, s)

@@ -43,6 +43,8 @@ none); scalar variants keep ``volpath`` (a Python integrator is called per sampl
 
 from __future__ import annotations
 
+import math
+
 from pavonine.render.plugins import register_once
 
 PLUGIN_NAME = "pavonine_path"
@@ -89,11 +91,12 @@ def _plugin_class():
             if self.max_depth == 0:  # volpath: no light at all; valid where it sees the sky
                 has_env = scene.environment() is not None
                 return mi.Spectrum(0.0), mi.Bool(has_env and not self.hide_emitters) & active, []
-            return self.trace(scene, sampler, ray, active)
+            return self.trace(scene, sampler, ray, active, pixel_differential(ray, sampler))
 
         @dr.syntax
-        def trace(self, scene, sampler, ray, active):
-            """The path loop of :meth:`sample` (module docstring)."""
+        def trace(self, scene, sampler, ray, active, pixel=None):
+            """The path loop of :meth:`sample` (module docstring); ``pixel``: the camera ray's
+            differentials spanning one pixel (:func:`pixel_differential`), or ``None``."""
             import drjit as dr  # dr.syntax recompiles the body without the enclosing scope
             import mitsuba as mi
 
@@ -139,6 +142,13 @@ def _plugin_class():
                 current = dr.select(shadow, shadow_ray, ray)
                 current.maxt = dr.select(shadow, shadow_length - shadow_done, current.maxt)
                 si = scene.ray_intersect(current, shadow | stepping)
+                if dr.hint(pixel is not None, mode="scalar"):
+                    # The pixel's footprint on the surface the camera sees (uv partials), for
+                    # the feather BSDF's glints; none after the first scattering.
+                    seen = stepping & (depth == 0)
+                    duv_dx, duv_dy = uv_partials(si, pixel)
+                    si.duv_dx = dr.select(seen, duv_dx, 0.0)
+                    si.duv_dy = dr.select(seen, duv_dy, 0.0)
                 bsdf = si.bsdf(current)
 
                 # ---- shadow step: through null surfaces by their transmission (volpath).
@@ -220,6 +230,59 @@ def _plugin_class():
             )
 
     return PavoninePath
+
+
+def pixel_differential(ray, sampler):
+    """The camera ray with differentials spanning a whole pixel, or ``None`` without them.
+
+    Mitsuba's ``SamplingIntegrator`` scales the sensor's differentials (one pixel apart) by
+    ``1/√spp`` before ``sample`` (``diff_scale_factor``, ``src/render/integrator.cpp``); the
+    glints' footprint is the pixel's, whatever the sample count or how the samples are split
+    into passes or among workers, so that scale is undone (``scale_differential`` moves the
+    offset rays' origins and directions linearly about the main ray's).
+    """
+    import mitsuba as mi
+
+    if not isinstance(ray, mi.RayDifferential3f) or not ray.has_differentials:
+        return None
+    # (RayDifferential3f's copy constructor keeps the main ray only: copy field by field)
+    pixel = mi.RayDifferential3f(mi.Ray3f(ray))
+    pixel.o_x, pixel.o_y, pixel.d_x, pixel.d_y = ray.o_x, ray.o_y, ray.d_x, ray.d_y
+    pixel.has_differentials = True
+    pixel.scale_differential(math.sqrt(sampler.sample_count()))
+    return pixel
+
+
+def uv_partials(si, pixel):
+    """``(duv_dx, duv_dy)`` at ``si`` for the offset rays of ``pixel`` (a ``RayDifferential3f``):
+    Mitsuba's ``SurfaceInteraction::compute_uv_partials`` (``include/mitsuba/render/
+    interaction.h``; Pharr et al., *PBRT* 3rd ed. §10.1.1) written out, because inside the path
+    loop's symbolic ``while`` the bound method returns zeros (Dr.Jit 1.5 / Mitsuba 3.9.1). The
+    offset rays meet the tangent plane at ``p + dp_dx``, ``p + dp_dy``; the least-squares
+    solution of ``dp = dp_du du + dp_dv dv`` gives the partials (zero where ``dp_du``, ``dp_dv``
+    are degenerate or the offset ray runs parallel to the plane)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    d = dr.dot(si.n, si.p)
+
+    def offset(o, direction):
+        t = (d - dr.dot(si.n, o)) / dr.dot(si.n, direction)
+        return dr.fma(direction, t, o) - si.p
+
+    dp_dx, dp_dy = offset(pixel.o_x, pixel.d_x), offset(pixel.o_y, pixel.d_y)
+    a00, a01, a11 = (
+        dr.dot(si.dp_du, si.dp_du),
+        dr.dot(si.dp_du, si.dp_dv),
+        dr.dot(si.dp_dv, si.dp_dv),
+    )
+    inv_det = dr.rcp(a00 * a11 - a01 * a01)
+    out = []
+    for dp in (dp_dx, dp_dy):
+        b0, b1 = dr.dot(si.dp_du, dp), dr.dot(si.dp_dv, dp)
+        duv = mi.Vector2f(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv_det
+        out.append(dr.select(dr.all(dr.isfinite(duv)), duv, 0.0))
+    return out[0], out[1]
 
 
 def register() -> None:
