@@ -161,7 +161,10 @@ def render_products(
 
     scene_dict: dict[str, Any] = {"type": "scene"}
     shapes = dict(synced.shapes)
+    sensor_ids = shared_sensors([_sensor_dict(job) for job in jobs])
     for index, job in enumerate(jobs):
+        if sensor_ids[index] != f"sensor_{index}":
+            continue  # the same camera, film and size as an earlier product: its sensor
         if job.sensor.sensor["type"] != "irradiancemeter":
             scene_dict[f"sensor_{index}"] = _sensor_dict(job)
             continue
@@ -211,7 +214,7 @@ def render_products(
             integrator = mi.load_dict(job.plan.integrator(path_tracer))
             image, variance, passes = render_passes(
                 scene,
-                [s.id() for s in scene.sensors()].index(f"sensor_{index}"),
+                sensor_index(scene, sensor_ids[index], stage_path),
                 integrator,
                 spp,
                 seed,
@@ -260,6 +263,45 @@ def render_products(
         result.metadata["seconds"] = seconds
         result.warnings = list(diag.messages)
     return results
+
+
+def shared_sensors(sensor_dicts: list[dict]) -> list[str]:
+    """The scene id of each product's sensor: ``sensor_{index}``, or the id of the first earlier
+    product whose sensor (camera, lens, film, size) is the same.
+
+    ``mi.load_dict`` builds one object for equal dictionaries, so two products through one camera
+    at one size (a beauty and an AOV product) would find one ``sensor_0`` in the scene and no
+    ``sensor_1``; they share the sensor and render each with its own integrator instead.
+    """
+    seen: dict[str, str] = {}
+    ids = []
+    for index, entry in enumerate(sensor_dicts):
+        ids.append(seen.setdefault(_canonical(entry), f"sensor_{index}"))
+    return ids
+
+
+def sensor_index(scene, sensor_id: str, stage_path: str | os.PathLike) -> int:
+    """Index of the sensor ``sensor_id`` in the Mitsuba scene (an :class:`InputError` if Mitsuba
+    built none under that id, rather than a ``ValueError`` from deep inside)."""
+    ids = [s.id() for s in scene.sensors()]
+    if sensor_id not in ids:
+        raise InputError(
+            os.fspath(stage_path),
+            f"Mitsuba's scene has no sensor {sensor_id} (sensors: {', '.join(ids) or 'none'})",
+        )
+    return ids.index(sensor_id)
+
+
+def _canonical(value: Any) -> str:
+    """A sensor dictionary as text that is equal exactly when the dictionaries are equal (Mitsuba
+    transforms as their matrices)."""
+    if isinstance(value, dict):
+        return "{" + ",".join(f"{k}:{_canonical(value[k])}" for k in sorted(value)) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(_canonical(v) for v in value) + "]"
+    if hasattr(value, "matrix"):
+        return "T" + repr(np.asarray(value.matrix, dtype=np.float64).ravel().tolist())
+    return repr(value)
 
 
 def choose_products(
