@@ -18,6 +18,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.base.errors import InputError
+from pavonine.base.nesting import check_nesting, deep_call
 from pavonine.render import (
     curves,
     displacement,
@@ -61,16 +62,18 @@ class SyncedScene:
 
 
 def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
-    """Open a USD stage; a missing or unparsable root layer is an :class:`InputError` (one line)."""
+    """Open a USD stage; a missing or unparsable root layer, or prims nested beyond
+    :data:`~pavonine.base.nesting.MAX_NESTING`, is an :class:`InputError` (one line)."""
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError(path, "no such file")
-    try:
-        stage = Usd.Stage.Open(path)
+    try:  # parsing and composing recurse per level of nesting: on a deep stack (base.nesting)
+        stage = deep_call(Usd.Stage.Open, path, depth=0)
     except Tf.ErrorException as exc:
         raise InputError(path, f"cannot open USD stage: {usd_error_message(exc)}") from None
     if stage is None:
         raise InputError(path, "cannot open USD stage")
+    check_nesting(stage, path)
     errors = [first_line(error) for error in stage.GetCompositionErrors()]
     if any(".mtlx" in error.lower() for error in errors):  # usd-core has no usdMtlx
         from pavonine.render.shading.mtlx_documents import substitute_references
