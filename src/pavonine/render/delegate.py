@@ -125,6 +125,31 @@ class StageDelegate:
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
         self.skinning = skel.Skinning()
+        #: (path, kind) of every prim translated at the stage level (kinds; "instance" for an
+        #: instanceable prim): what :mod:`.motion` looks at for time-varying prims
+        self.synced_prims: list[tuple[str, str]] = []
+        self.limits = limits
+
+    def at_time(self, time: Usd.TimeCode) -> StageDelegate:
+        """A delegate of the same stage at ``time`` that shares this one's materials and BSDFs
+        (nothing is translated until asked: :meth:`translate_prim`)."""
+        view = StageDelegate(self.stage, time, self.diag, limits=self.limits)
+        view._materials, view._bsdfs = self._materials, self._bsdfs
+        view.feather_bsdfs = []  # the scene's feather BSDFs are this delegate's
+        if self.skinning.points or self.skinning.transforms:
+            view.skinning = skel.skin_stage(self.stage, time, view.xforms, self.diag)
+        return view
+
+    def translate_prim(self, prim: Usd.Prim, kind: str) -> dict[str, object]:
+        """The shapes of one stage-level gprim or curves prim at this delegate's time, by shape
+        name (``/prim#0``); none when its transform is unusable at this time (warned)."""
+        if self._world(prim) is None:
+            return {}
+        before = dict(self.scene.shapes)
+        self.scene.shapes.clear()
+        self._sync_prim(prim, kind)
+        made, self.scene.shapes = self.scene.shapes, before
+        return made
 
     def sync(self) -> SyncedScene:
         """Walk the stage and translate every renderable prim (progress on stderr if asked)."""
@@ -152,11 +177,16 @@ class StageDelegate:
                 instancing.native_instance(
                     prim, self.xforms.world(prim), self.table, self._subtree, self.time
                 )
+                self.synced_prims.append((str(prim.GetPath()), "instance"))
                 it.PruneChildren()
             elif kind == kinds.LIGHT:
                 light_prims.append(prim)
-            elif self._sync_prim(prim, kind):
-                it.PruneChildren()
+                self.synced_prims.append((str(prim.GetPath()), kind))
+            else:
+                if kind in kinds.GEOMETRIC:
+                    self.synced_prims.append((str(prim.GetPath()), kind))
+                if self._sync_prim(prim, kind):
+                    it.PruneChildren()
         self.scene.shapes.update(self.table.groups)
         self.scene.shapes.update(self.table.instances)
         self.scene.instance_count = len(self.table.instances)
