@@ -129,11 +129,14 @@ class StageDelegate:
         #: instanceable prim): what :mod:`.motion` looks at for time-varying prims
         self.synced_prims: list[tuple[str, str]] = []
         self.limits = limits
+        self.base_time: Usd.TimeCode | None = None  # see at_time
 
-    def at_time(self, time: Usd.TimeCode) -> StageDelegate:
+    def at_time(self, time: Usd.TimeCode, base: Usd.TimeCode | None = None) -> StageDelegate:
         """A delegate of the same stage at ``time`` that shares this one's materials and BSDFs
-        (nothing is translated until asked: :meth:`translate_prim`)."""
+        (nothing is translated until asked: :meth:`translate_prim`); ``base``: the frame's time
+        when ``time`` is within its shutter (velocities move points from there)."""
         view = StageDelegate(self.stage, time, self.diag, limits=self.limits)
+        view.base_time = base
         view._materials, view._bsdfs = self._materials, self._bsdfs
         view.feather_bsdfs = []  # the scene's feather BSDFs are this delegate's
         if self.skinning.points or self.skinning.transforms:
@@ -271,7 +274,7 @@ class StageDelegate:
     def _surface(self, prim: Usd.Prim) -> mesh.Surface | None:
         """The gprim as polygons: a mesh as authored (subdivided), or an implicit prim tessellated."""
         if prim.GetTypeName() == "Mesh":
-            surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag)
+            surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag, self.base_time)
             if surface is None:
                 return None
             skinned = self.skinning.points.get(str(prim.GetPath()))

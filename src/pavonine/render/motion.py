@@ -48,6 +48,8 @@ from pavonine.render.diagnostics import Diagnostics
 
 #: Time slices of a blurred image (fewer when the image has fewer samples per pixel).
 DEFAULT_SLICES = 16
+#: Attributes that move a prim between its time samples (UsdGeomPointBased, PointInstancer).
+MOTION_ATTRIBUTES = ("velocities", "accelerations", "angularVelocities")
 #: Seeds of the slices: ``seed · SLICE_STRIDE + i + 1`` (passes inside a slice add their own).
 SLICE_STRIDE = 1_000_003
 
@@ -155,8 +157,14 @@ class Variation:
 
     @staticmethod
     def attributes(prim: Usd.Prim) -> bool:
-        """Some attribute of ``prim`` itself might vary (xformOps included)."""
-        return any(a.ValueMightBeTimeVarying() for a in prim.GetAttributes())
+        """Some attribute of ``prim`` itself might vary (xformOps included), or it has
+        ``velocities``, ``accelerations`` or ``angularVelocities`` (motion within one sample)."""
+        for attr in prim.GetAttributes():
+            if attr.ValueMightBeTimeVarying():
+                return True
+            if attr.GetName() in MOTION_ATTRIBUTES and attr.HasAuthoredValue():
+                return True
+        return False
 
     def prim(self, prim: Usd.Prim) -> bool:
         return self.transform(prim) or self.attributes(prim)
@@ -201,8 +209,8 @@ class MotionPlan:
         started = clock.perf_counter()
         if self.time == time:
             return 0.0
-        view = self.delegate.at_time(Usd.TimeCode(time))
         base_code = Usd.TimeCode(time if base is None else base)
+        view = self.delegate.at_time(Usd.TimeCode(time), base_code)
         for prim, kind, keys in self.gprims:
             self._move_gprim(params, view, prim, kind, keys, diag)
         for prim, instances in self.instancers:
