@@ -76,6 +76,14 @@ IMAGE_SCHEMA = {
             "items": {"type": "string"},
             "description": "the renderer's warnings for this image",
         },
+        "seconds": {
+            "type": ["number", "null"],
+            "description": "seconds its render took (its tasks' sum on a farm)",
+        },
+        "sync_seconds": {
+            "type": ["number", "null"],
+            "description": "of which syncing the stage (a later frame: only what varies)",
+        },
     },
 }
 
@@ -297,9 +305,14 @@ def _show(record: dict[str, Any]) -> None:
     written = " + ".join(str(p) for p in (record["exr"], record["png"], record["variance"]) if p)
     w, h = record["resolution"]
     shards = f" in {record['shards']} shards" if record["shards"] > 1 else ""
+    seconds = ""
+    if record.get("seconds") is not None:
+        seconds = f", {record['seconds']:.2f} s"
+        if record.get("sync_seconds") is not None:
+            seconds += f" (sync {record['sync_seconds']:.3f} s)"
     say(
         f"{written}: {w}×{h}, {record['spp']} spp{shards}, {record['variant']}, "
-        f"channels {', '.join(record['channels'])}"
+        f"channels {', '.join(record['channels'])}{seconds}"
     )
 
 

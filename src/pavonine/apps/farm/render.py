@@ -125,6 +125,7 @@ def write_image(
         shard_seeds=[shard_seed(seed, p.shard) for p in parts],
         workers=sorted({p.worker for p in parts}),
         seconds=round(sum(p.seconds.get("task", 0.0) for p in parts), 3),
+        sync_seconds=round(sum(p.seconds.get("sync", 0.0) for p in parts), 4),
     )
     metadata.pop("passes", None)
     variance = None
@@ -176,6 +177,8 @@ def image_record(
         "shards": shards,
         "workers": list(workers),
         "warnings": list(warnings),
+        "seconds": metadata.get("seconds"),
+        "sync_seconds": metadata.get("sync_seconds"),
     }
 
 
