@@ -154,6 +154,14 @@ JSON_SCHEMA = {
     "direct light) [default: the RenderSettings' mitsuba:integrator:max_depth, else 8].",
 )
 @click.option(
+    "--motion-slices",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="Time slices of a frame whose camera's shutter is open (motion blur; each a render "
+    "pass of spp/N samples) [default: 16, at most --spp].",
+)
+@click.option(
     "--resolution",
     metavar="WxH",
     help="Image size of every image [default: each product's, else the RenderSettings', else "
@@ -197,6 +205,7 @@ def render(
     png_out: Path | None,
     spp: int | None,
     max_depth: int | None,
+    motion_slices: int | None,
     resolution: str | None,
     cameras: tuple[str, ...],
     products: tuple[str, ...],
@@ -259,7 +268,7 @@ def render(
         report = farm.render_batch(
             stage, batch, spp=spp, workers=workers, scheduler=scheduler, split=split, seed=seed,
             variant=variant, display=display, on_image=_show_with_warnings(), limits=limits,
-            max_depth=max_depth,
+            max_depth=max_depth, motion_slices=motion_slices,
         )  # fmt: skip
     else:
         from pavonine.apps.farm.jobs import plan
@@ -280,6 +289,7 @@ def render(
         options = RenderOptions(
             spp=spp, max_depth=max_depth, resolution=size, seed=seed, time=time_,
             variant=variant, moments=variance, progress=show_progress(), limits=limits,
+            motion_slices=motion_slices,
         )  # fmt: skip
         report = _render_here(stage, views, jobs, options, display)
     images = report["images"]

@@ -59,6 +59,7 @@ class RenderTask:
     threads: int | None = None
     limits: RenderLimits = DEFAULT_LIMITS  # the client's render ceilings (--max-…)
     max_depth: int | None = None  # --max-depth (None: the stage's integrator settings)
+    motion_slices: int | None = None  # --motion-slices (None: render.motion.DEFAULT_SLICES)
     version: str = ""
     job: int = 0
     shard: int = 0
@@ -77,6 +78,7 @@ class RenderTask:
             moments=self.moments,
             progress=False,
             limits=self.limits,
+            motion_slices=self.motion_slices,
         )
 
 
@@ -197,7 +199,7 @@ def session_key(task: RenderTask) -> tuple:
     """What a task's session is made of: everything but its time, seed and samples."""
     return (
         task.stage, task.stage_sha256, task.camera, task.product, task.resolution, task.moments,
-        task.variant, task.max_depth, task.limits, task.version,
+        task.variant, task.max_depth, task.limits, task.motion_slices, task.version,
     )  # fmt: skip
 
 
