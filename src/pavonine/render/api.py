@@ -134,6 +134,7 @@ class RenderSession:
         options.check()
         self.stage_path, self.options = stage_path, options
         self.sync_seconds: list[float] = []
+        self.last_sync = "full"  # or "moved": only the time-varying prims, to this frame
         self._build(options.time)
 
     def _build(self, time: float | None) -> None:
@@ -295,11 +296,13 @@ class RenderSession:
             if self.plan is None or not self.plan.complete or self.frame is None:
                 self.sync_seconds.pop()  # replaced by this frame's full sync
                 self._build(time)
+                self.last_sync = "full"
             else:
                 self.frame = float(time)
                 self.time_code = Usd.TimeCode(time)
                 sync = self.plan.retime(self.params, self.frame, self.diag)
                 self.sync_seconds.append(sync)
+                self.last_sync = "moved"
         options, jobs = self.options, self.jobs
         results = []
         with _progress(self.stage_path, jobs, spp, options.progress) as advance:
@@ -316,6 +319,7 @@ class RenderSession:
         for result in results:
             result.metadata["seconds"] = seconds
             result.metadata["sync_seconds"] = round(self.sync_seconds[-1], 4)
+            result.metadata["sync"] = self.last_sync
             result.warnings = list(self.diag.messages)
         return results
 
@@ -350,7 +354,7 @@ class RenderSession:
                 part = variance * weight * weight
                 variance_sum = part if variance_sum is None else variance_sum + part
             passes += slice_passes
-        if slices > 1 and self.frame is not None and self.plan is not None:
+        if slices > 1 and self.frame is not None and self.params is not None:
             self.plan.retime(self.params, self.frame, self.diag)  # back at the frame's time
         return total.astype(np.float32), variance_sum, passes, times
 

@@ -46,8 +46,12 @@ from pavonine.base.errors import InputError
 from pavonine.render import prim_kinds as kinds
 from pavonine.render.diagnostics import Diagnostics
 
-#: Time slices of a blurred image (fewer when the image has fewer samples per pixel).
+#: Time slices of a blurred image at most (by default one per MIN_SLICE_SPP samples per pixel).
 DEFAULT_SLICES = 16
+#: Samples per pixel of a slice by default: each slice is one ``mi.render`` call, which traces
+#: the integrator again (the kernel itself is found in Dr.Jit's cache), so a slice must carry
+#: enough samples for that trace not to dominate (``benchmarks/bench_motion.py``).
+MIN_SLICE_SPP = 8
 #: Attributes that move a prim between its time samples (UsdGeomPointBased, PointInstancer).
 MOTION_ATTRIBUTES = ("velocities", "accelerations", "angularVelocities")
 #: Seeds of the slices: ``seed · SLICE_STRIDE + i + 1`` (passes inside a slice add their own).
@@ -77,11 +81,12 @@ class Shutter:
 
 
 def slice_count(shutter: Shutter, spp: int, slices: int | None, moments: bool) -> int:
-    """Slices of one image: 1 for an instant, else ``slices`` (:data:`DEFAULT_SLICES`) but no more
-    than ``spp`` (half of it with ``moments``: each slice needs two passes for a variance)."""
+    """Slices of one image: 1 for an instant, else ``slices`` (default: one per
+    :data:`MIN_SLICE_SPP` samples, at most :data:`DEFAULT_SLICES`) but no more than ``spp`` (half
+    of it with ``moments``: each slice needs two passes for a variance)."""
     if not shutter.blurred:
         return 1
-    wanted = DEFAULT_SLICES if slices is None else slices
+    wanted = min(DEFAULT_SLICES, -(-spp // MIN_SLICE_SPP)) if slices is None else slices
     return max(1, min(wanted, spp // 2 if moments else spp))
 
 

@@ -256,6 +256,7 @@ def render_task(task: RenderTask) -> RenderShard:
             "render": done - hashed,
             "task": done - start,
             "sync": float(result.metadata.get("sync_seconds", 0.0)),
+            "synced_all": float(result.metadata.get("sync") == "full"),
         },
         layers=_extra_layers(result),
         has_beauty=result.has_beauty,
