@@ -261,3 +261,20 @@ def layers(draw) -> dict[str, str]:
         )
     files["scene.usda"] = "#usda 1.0\n(\n    " + "\n    ".join(header) + "\n)\n" + "\n".join(body)
     return files
+
+
+#: Nesting of :func:`deep_layers`' stage: 3000 ``Xform`` levels overflowed the main thread's stack
+#: in ``UsdGeomBBoxCache`` (issue 35; ``pavonine.base.nesting``).
+DEEP = 3000
+
+
+def deep_layers(depth: int = DEEP) -> dict[str, str]:
+    """A valid stage of ``depth`` nested ``Xform`` prims with a quad at the bottom, and neither
+    camera nor light (so the render frames it by the stage's bounds, where the crash was)."""
+    opening = "".join(f'def Xform "X{i}"\n{{\n' for i in range(depth))
+    quad = (
+        'def Mesh "Quad"\n{\n'
+        "point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]\n"
+        "int[] faceVertexCounts = [4]\nint[] faceVertexIndices = [0, 1, 2, 3]\n}\n"
+    )
+    return {"scene.usda": '#usda 1.0\n(\n    upAxis = "Y"\n)\n' + opening + quad + "}\n" * depth}

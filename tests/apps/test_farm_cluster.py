@@ -383,3 +383,38 @@ def test_glints_are_the_same_in_one_process_on_workers_and_split_by_samples(shar
         agree = stat_compare(tmp_path, name, "one")
         assert agree.returncode == 0, (name, agree.stdout + agree.stderr)
     assert stat_compare(tmp_path, "reseeded", "one").returncode == 1
+
+
+def test_blurred_frames_on_workers_sync_only_what_varies_and_equal_fresh_renders(
+    shared_dask, tmp_path
+):
+    """Frames of a moving quad with its shutter open, on two workers: each worker syncs the stage
+    once and moves only the quad to its later frames (their sync is a fraction of the first's),
+    and every frame is the fresh single-time render of that time, bit for bit."""
+    from motion_scene import motion_stage
+
+    stage = tmp_path / "moving.usda"
+    motion_stage(stage, (-0.25, 0.25))
+    common = ["--spp", "16", "--seed", "4", "-q"]
+    farm = pavonine(
+        "render", str(stage), "-o", str(tmp_path / "f.exr"), "--frames", "0-3", *common,
+        "--scheduler", shared_dask.address, "--json", str(tmp_path / "farm.json"),
+    )  # fmt: skip
+    assert farm.returncode == 0, farm.stderr
+    report = json.loads((tmp_path / "farm.json").read_text())
+    assert {len(image["warnings"]) for image in report["images"]} == {0}
+    for frame in range(4):
+        fresh = pavonine(
+            "render", str(stage), "-o", str(tmp_path / f"one.{frame}.exr"), "--time",
+            str(frame), *common,
+        )  # fmt: skip
+        assert fresh.returncode == 0, fresh.stderr
+        farmed = read_exr(tmp_path / f"f.{frame:04d}.exr")[0]
+        assert np.array_equal(farmed, read_exr(tmp_path / f"one.{frame}.exr")[0]), frame
+    syncs: dict[str, list[float]] = {}
+    for task in report["tasks"]:
+        syncs.setdefault(task["worker"], []).append(task["seconds"]["sync"])
+    assert any(len(times) > 1 for times in syncs.values()), "no worker rendered two frames"
+    for times in syncs.values():  # one full sync per worker, the others only the quad's
+        first, *later = sorted(times, reverse=True)
+        assert all(t < first / 2 for t in later), times

@@ -122,3 +122,41 @@ def test_fuzz_render_hostile_layers(files):
 @given(files=usd_fuzz.layers())
 def test_fuzz_validate_hostile_layers(files):
     check_validate(files)
+
+
+@pytest.mark.render
+def test_deep_stage_renders_never_crashes():
+    """3000 nested Xforms over a quad (valid USD): rendered, framed by its bounds (the
+    segmentation fault of issue 35 was there), the same image as the quad under one Xform."""
+    from pavonine.render.imageio import read_exr
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "deep.exr"
+        stage = write(usd_fuzz.deep_layers(), Path(tmp))
+        code, _, stderr, seconds = invoke("render", stage, "-o", out, *RENDER_ARGS)
+        assert code == 0 and "Traceback" not in stderr, stderr
+        assert seconds < EXAMPLE_SECONDS
+        pixels = np.asarray(read_exr(out)[0])
+        assert pixels.shape == (12, 16, 3) and np.isfinite(pixels).all()
+        shallow = Path(tmp) / "shallow"
+        shallow.mkdir()
+        stage = write(usd_fuzz.deep_layers(1), shallow)
+        code, _, stderr, _ = invoke("render", stage, "-o", shallow / "one.exr", *RENDER_ARGS)
+        assert code == 0, stderr
+        assert np.array_equal(pixels, np.asarray(read_exr(shallow / "one.exr")[0]))
+
+
+def test_stage_beyond_the_nesting_limit_is_one_line_naming_it(monkeypatch):
+    from pavonine.base import nesting
+
+    monkeypatch.setattr(nesting, "MAX_NESTING", usd_fuzz.DEEP - 1)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "deep.exr"
+        code, _, stderr, _ = invoke(
+            "render", write(usd_fuzz.deep_layers(), Path(tmp)), "-o", out, *RENDER_ARGS
+        )
+        assert code == 2, stderr
+        (line,) = error_lines(stderr)
+        assert f"prims nested {usd_fuzz.DEEP + 1:,} deep" in line
+        assert f"beyond the limit of {usd_fuzz.DEEP - 1:,} levels (MAX_NESTING)" in line
+        assert len(line) < 400 and not out.exists()

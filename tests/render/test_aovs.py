@@ -105,6 +105,37 @@ def test_every_product_is_written_with_its_camera_resolution_and_channels(tmp_pa
     assert bad.exit_code == 2 and "error: --product: no RenderProduct at /Nope" in bad.output
 
 
+def test_twin_products_through_one_camera_write_each_its_own_file(tmp_path):
+    """hdmitsuba's ``render_settings/aovs_multiple_products.usda`` pattern: a beauty and an AOV
+    product through the same camera at the same size. Mitsuba builds one sensor for two equal
+    sensor dictionaries; both products must still render (issue 35: ``'sensor_1' is not in
+    list``), each to its own file, each with the pixels it renders alone."""
+    products = (("Color", (20, 14), ("color",)), ("Aovs", (20, 14), ("albedo", "normal", "depth")))
+    stage = aov_stage(tmp_path, products=products)
+    stage.Save()
+    out = tmp_path / "out" / "twin.exr"
+    result = CliRunner().invoke(
+        cli, ["render", str(tmp_path / "aovs.usda"), "-o", str(out), "--spp", "4", "-q"]
+    )
+    assert result.exit_code == 0, result.output
+    aovs = tmp_path / "out" / "twin.Aovs.exr"
+    assert out.is_file() and aovs.is_file()
+    spec = oiio.ImageInput.open(str(aovs)).spec()
+    assert (spec.width, spec.height) == (20, 14)
+    assert "depth.Z" in spec.channelnames and "normal.Z" in spec.channelnames
+    both = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)
+    alone = tmp_path / "alone.exr"
+    result = CliRunner().invoke(
+        cli,
+        ["render", str(tmp_path / "aovs.usda"), "--product", "/Render/Color", "-o", str(alone),
+         "--spp", "4", "-q"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert np.array_equal(both, oiio.ImageBuf(str(alone)).get_pixels(oiio.FLOAT))
+    depth = oiio.ImageBuf(str(aovs)).get_pixels(oiio.FLOAT)[..., spec.channelnames.index("depth.Z")]
+    assert depth[7, 10] == pytest.approx(5.0, rel=0.02)
+
+
 def test_unsupported_render_settings_are_warned(tmp_path):
     stage = aov_stage(tmp_path, products=(("Main", (8, 8), ("color",)),))
     settings = UsdRender.Settings(stage.GetPrimAtPath("/Render/Settings"))

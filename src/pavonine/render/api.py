@@ -22,12 +22,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from pxr import Usd
 
 from pavonine.base.backend import select_variant
 from pavonine.base.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
-from pavonine.render import displacement, instance_primvars, lights, sensors
+from pavonine.render import displacement, instance_primvars, lights, motion, sensors
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
@@ -115,151 +116,319 @@ def render_products(
     (:mod:`.integrator_settings`). Warnings are shared by all results. ``limits``
     (:mod:`.limits`) are checked before the stage is translated: image sizes and ``spp`` first,
     instance counts as instancers are met. An image with NaN or infinite pixels is an
-    :class:`InputError`, never a result.
+    :class:`InputError`, never a result. A camera whose shutter is open over an interval blurs
+    what moves in it (:mod:`.motion`).
     """
     options = (options or RenderOptions()).but(**changes)
-    options.check()
-    spp, max_depth, resolution, seed = (
-        options.spp,
-        options.max_depth,
-        options.resolution,
-        options.seed,
-    )
-    camera, framing, time, variant = options.camera, options.framing, options.time, options.variant
-    moments, progress, limits = options.moments, options.progress, options.limits
-    products, first_only = options.products, options.first_only
-    backend = _select(variant)
-    import drjit as dr
-    import mitsuba as mi
+    return RenderSession(stage_path, options).render()
 
-    started = _time.perf_counter()
-    diag = Diagnostics()
-    stage = open_stage(stage_path, diag)
-    time_code = render_time(stage, time)
-    settings = read_render_settings(stage, diag)
-    if settings.path is not None:
-        check_variant(stage.GetPrimAtPath(settings.path), backend.variant, diag)
-    if spp is None:
-        spp = settings.sample_count or DEFAULT_SPP
-        check_spp(spp, moments, limits, settings.sample_count_field or "spp")
-    chosen = choose_products(settings.products, products, first_only)
-    for product in chosen:
-        check_product_size(product, resolution, settings.path, limits)
-    delegate = StageDelegate(stage, time_code, diag, limits=limits, progress=progress)
-    synced = delegate.sync()
-    if synced.bounds is None:
-        diag.warn(str(stage_path), "the stage has no renderable geometry")
-    jobs = [
-        _job(p, delegate, synced, (camera, framing), resolution, settings.path, time_code, diag)
-        for p in chosen
-    ]
-    emitters = dict(synced.emitters)
-    if not emitters and not synced.mesh_lights and not synced.dark_lights:
-        up = np.eye(3)[2 if synced.up_axis == "Z" else 1]
-        center, radius = delegate.bounding_sphere()
-        emitters = lights.default_lights(jobs[0].sensor.to_world, up, center, radius)
 
-    scene_dict: dict[str, Any] = {"type": "scene"}
-    shapes = dict(synced.shapes)
-    for index, job in enumerate(jobs):
-        if job.sensor.sensor["type"] != "irradiancemeter":
-            scene_dict[f"sensor_{index}"] = _sensor_dict(job)
-            continue
-        meter = sensors.attach_meter(shapes, stage, job.camera, _sensor_dict(job), diag)
-        if meter is None:  # warned: through the camera's lens instead
-            prim = synced.cameras[job.camera]
-            job.sensor = camera_translator.translate_camera(
-                prim,
-                delegate.xforms.world(prim),
-                time_code,
-                job.size,
-                job.product.pixel_aspect,
-                job.product.conform,
-                Diagnostics(),  # its settings were read (and warned about) once already
-                lens_only=True,
-            )
-            scene_dict[f"sensor_{index}"] = _sensor_dict(job)
-        else:
-            meter.set_id(f"sensor_{index}")
-    scene_dict.update(scene_objects(shapes, emitters))
-    views = [
-        displacement.view_of(j.sensor.sensor, j.sensor.to_world, (j.film_width, j.size[1]))
-        for j in jobs
-        if j.sensor.sensor["type"] != "irradiancemeter"
-    ]
-    displacement.resolve(scene_dict, views, synced.bounds, diag)
-    gc.collect()  # see passes.render_pass
-    try:
-        # Built in order, not on Mitsuba's thread pool: registry ids (which Dr.Jit writes into the
-        # kernel, e.g. the environment emitter's) then follow the dict, so the same stage traces
-        # the same kernel and finds it in Dr.Jit's disk cache. In parallel the train's sky got id 1
-        # or 2 from run to run (2 of 5 runs), each form an LLVM compile of its own.
-        scene = mi.load_dict(scene_dict, parallel=False)
-    except Exception as exc:
-        raise InputError(
-            os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"
-        ) from None
-    instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
+class RenderSession:
+    """A stage synced once into one Mitsuba scene, rendered at its time and then, for frames, at
+    others: as a Hydra delegate syncs frames, only the time-varying prims are translated again
+    (:class:`.motion.MotionPlan`) and moved in the scene in place; when something varies that the
+    plan cannot move (a light, a lens, changing topology, the framing of a stage without camera),
+    the next frame is synced in full. ``sync_seconds`` holds each frame's sync time."""
 
-    if max_depth is not None and settings.integrator.type == "direct":
-        diag.warn(str(settings.path), "max_depth has no effect: the stage asks for direct light")
-    integrator_spec = settings.integrator.with_max_depth(max_depth).for_variant(backend.variant)
-    path_tracer = integrator_spec.mitsuba_dict()
-    results = []
-    with _progress(stage_path, jobs, spp, progress) as advance:
+    def __init__(self, stage_path: str | os.PathLike, options: RenderOptions):
+        options.check()
+        self.stage_path, self.options = stage_path, options
+        self.sync_seconds: list[float] = []
+        self.last_sync = "full"  # or "moved": only the time-varying prims, to this frame
+        self._build(options.time)
+
+    def _build(self, time: float | None) -> None:
+        options, stage_path = self.options, self.stage_path
+        camera, framing, variant = options.camera, options.framing, options.variant
+        resolution, limits, spp = options.resolution, options.limits, options.spp
+        self.backend = backend = _select(variant)
+        import mitsuba as mi
+
+        self.started = started = _time.perf_counter()
+        self.diag = diag = Diagnostics()
+        self.stage = stage = open_stage(stage_path, diag)
+        self.time_code = time_code = render_time(stage, time)
+        self.settings = settings = read_render_settings(stage, diag)
+        if settings.path is not None:
+            check_variant(stage.GetPrimAtPath(settings.path), backend.variant, diag)
+        if spp is None:
+            spp = settings.sample_count or DEFAULT_SPP
+            check_spp(spp, options.moments, limits, settings.sample_count_field or "spp")
+        self.spp = spp
+        chosen = choose_products(settings.products, options.products, options.first_only)
+        for product in chosen:
+            check_product_size(product, resolution, settings.path, limits)
+        self.delegate = delegate = StageDelegate(
+            stage, time_code, diag, limits=limits, progress=options.progress
+        )
+        synced = delegate.sync()
+        if synced.bounds is None:
+            diag.warn(str(stage_path), "the stage has no renderable geometry")
+        self.jobs = jobs = [
+            _job(p, delegate, synced, (camera, framing), resolution, settings.path, time_code, diag)
+            for p in chosen
+        ]
+        emitters = dict(synced.emitters)
+        default_lights = not emitters and not synced.mesh_lights and not synced.dark_lights
+        if default_lights:
+            up = np.eye(3)[2 if synced.up_axis == "Z" else 1]
+            center, radius = delegate.bounding_sphere()
+            emitters = lights.default_lights(jobs[0].sensor.to_world, up, center, radius)
+
+        scene_dict: dict[str, Any] = {"type": "scene"}
+        shapes = dict(synced.shapes)
+        self.sensor_ids = sensor_ids = shared_sensors([_sensor_dict(job) for job in jobs])
         for index, job in enumerate(jobs):
-            integrator = mi.load_dict(job.plan.integrator(path_tracer))
-            image, variance, passes = render_passes(
-                scene,
-                [s.id() for s in scene.sensors()].index(f"sensor_{index}"),
-                integrator,
-                spp,
-                seed,
+            if sensor_ids[index] != f"sensor_{index}":
+                continue  # the same camera, film and size as an earlier product: its sensor
+            if job.sensor.sensor["type"] != "irradiancemeter":
+                scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+                continue
+            meter = sensors.attach_meter(shapes, stage, job.camera, _sensor_dict(job), diag)
+            if meter is None:  # warned: through the camera's lens instead
+                prim = synced.cameras[job.camera]
+                job.sensor = camera_translator.translate_camera(
+                    prim,
+                    delegate.xforms.world(prim),
+                    time_code,
+                    job.size,
+                    job.product.pixel_aspect,
+                    job.product.conform,
+                    Diagnostics(),  # its settings were read (and warned about) once already
+                    lens_only=True,
+                )
+                scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+            else:
+                meter.set_id(f"sensor_{index}")
+        keys, _ = scene_keys(shapes, emitters)
+        scene_dict.update(scene_objects(shapes, emitters))
+        views = [
+            displacement.view_of(j.sensor.sensor, j.sensor.to_world, (j.film_width, j.size[1]))
+            for j in jobs
+            if j.sensor.sensor["type"] != "irradiancemeter"
+        ]
+        displacement.resolve(scene_dict, views, synced.bounds, diag)
+        gc.collect()  # see passes.render_pass
+        try:
+            # Built in order, not on Mitsuba's thread pool: registry ids (which Dr.Jit writes into
+            # the kernel, e.g. the environment emitter's) then follow the dict, so the same stage
+            # traces the same kernel and finds it in Dr.Jit's disk cache. In parallel the train's
+            # sky got id 1 or 2 from run to run (2 of 5 runs), each form an LLVM compile of its own.
+            self.scene = scene = mi.load_dict(scene_dict, parallel=False)
+        except Exception as exc:
+            raise InputError(
+                os.fspath(stage_path), f"Mitsuba could not build the scene: {first_line(exc)}"
+            ) from None
+        instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
+        self.shutters = [
+            motion.read_shutter(
+                synced.cameras.get(job.camera) if job.camera else None,
+                time_code,
+                job.product.disable_blur,
+                diag,
+            )
+            for job in jobs
+        ]
+        self.frame = motion.frame_time(time_code)
+        if self.frame is None and any(s.blurred for s in self.shutters):
+            diag.warn(str(stage_path), "no numeric time code: rendered without motion blur")
+            self.shutters = [motion.Shutter() for _ in jobs]
+        self.params = None
+        self.plan = None
+        blurred = any(s.blurred for s in self.shutters)
+        if blurred or self.frame is not None:
+            cameras = [
+                (synced.cameras[job.camera], sensor_ids[i], self._camera_mover(job))
+                for i, job in enumerate(jobs)
+                if job.camera and job.sensor.sensor["type"] != "irradiancemeter"
+                and sensor_ids[i] == f"sensor_{i}"
+            ]  # fmt: skip
+            self.plan = motion.plan_motion(delegate, keys, cameras, diag, warn=blurred)
+            if default_lights and (self.plan.cameras or not self.plan.static):
+                self.plan.fixed.append("(the default lights, placed by the camera and bounds)")
+            if any(job.camera is None for job in jobs) and not self.plan.static:
+                self.plan.fixed.append("(the framing of a stage without camera)")
+            if not self.plan.static:
+                self.params = mi.traverse(scene)
+
+        if options.max_depth is not None and settings.integrator.type == "direct":
+            diag.warn(
+                str(settings.path), "max_depth has no effect: the stage asks for direct light"
+            )
+        self.integrator_spec = settings.integrator.with_max_depth(options.max_depth).for_variant(
+            backend.variant
+        )
+        path_tracer = self.integrator_spec.mitsuba_dict()
+        self.integrators = [mi.load_dict(job.plan.integrator(path_tracer)) for job in jobs]
+        self.sync_seconds.append(_time.perf_counter() - started)
+
+    @staticmethod
+    def _camera_mover(job: _Job):
+        """``(prim, view, time) → to_world`` (Mitsuba layout) of the job's camera at another time."""
+
+        def to_world(prim, view, time):
+            try:
+                sensor = camera_translator.translate_camera(
+                    prim,
+                    view.xforms.world(prim),
+                    time,
+                    job.size,
+                    job.product.pixel_aspect,
+                    job.product.conform,
+                    Diagnostics(),
+                )
+            except ValueError:
+                return None  # NaN at this time: the camera stays where it was
+            return np.asarray(sensor.sensor["to_world"].matrix, dtype=np.float64)
+
+        return to_world
+
+    def render(
+        self, time: float | None = None, seed: int | None = None, spp: int | None = None
+    ) -> list[RenderResult]:
+        """The images at ``time`` (default: the time the session was synced at)."""
+        import drjit as dr
+
+        seed = self.options.seed if seed is None else seed
+        spp = self.spp if spp is None else spp
+        started = _time.perf_counter()
+        if time is not None and motion.frame_time(render_time(self.stage, time)) != self.frame:
+            if self.plan is None or not self.plan.complete or self.frame is None:
+                self.sync_seconds.pop()  # replaced by this frame's full sync
+                self._build(time)
+                self.last_sync = "full"
+            else:
+                self.frame = float(time)
+                self.time_code = Usd.TimeCode(time)
+                sync = self.plan.retime(self.params, self.frame, self.diag)
+                self.sync_seconds.append(sync)
+                self.last_sync = "moved"
+        options, jobs = self.options, self.jobs
+        results = []
+        with _progress(self.stage_path, jobs, spp, options.progress) as advance:
+            for index, job in enumerate(jobs):
+                image, variance, passes, times = self._render_job(index, job, spp, seed, advance)
+                images = job.plan.split(image)
+                _finish_aovs(job, images)
+                results.append(self._result(job, image, variance, images, passes, seed, spp, times))
+        dr.sync_thread()
+        for result in results:
+            check_finite_image(result, self.stage_path)
+        seconds = round(_time.perf_counter() - min(started, self.started), 3)
+        self.started = _time.perf_counter()
+        for result in results:
+            result.metadata["seconds"] = seconds
+            result.metadata["sync_seconds"] = round(self.sync_seconds[-1], 4)
+            result.metadata["sync"] = self.last_sync
+            result.warnings = list(self.diag.messages)
+        return results
+
+    def _render_job(self, index: int, job: _Job, spp: int, seed: int, advance):
+        """(image, variance, passes, slice times) of one product: its shutter's slices, each
+        rendered where the plan moves the scene, samples split across them (:mod:`.motion`)."""
+        shutter = self.shutters[index]
+        slices = motion.slice_count(shutter, spp, self.options.motion_slices, self.options.moments)
+        times = shutter.times(self.frame or 0.0, slices, seed) if shutter.blurred else [self.frame]
+        counts = motion.slice_spp(spp, slices)
+        sensor = sensor_index(self.scene, self.sensor_ids[index], self.stage_path)
+        total = variance_sum = None
+        passes = 0
+        for i, (when, count) in enumerate(zip(times, counts, strict=True)):
+            if self.plan is not None and self.params is not None and when is not None:
+                self.plan.retime(self.params, when, self.diag, base=self.frame)
+            image, variance, slice_passes = render_passes(
+                self.scene,
+                sensor,
+                self.integrators[index],
+                count,
+                motion.slice_seed(seed, i, slices),
                 (job.film_width, job.size[1]),
                 job.size[0],
-                moments,
+                self.options.moments,
                 advance,
-                trace_loops_once=bool(delegate.table.instances),
+                trace_loops_once=bool(self.delegate.table.instances),
             )
-            images = job.plan.split(image)
-            _finish_aovs(job, images)
-            width, height = job.size
-            metadata = {
-                "stage": os.fspath(stage_path),
-                "variant": backend.variant,
-                "spp": int(spp),
-                "integrator": integrator_spec.describe(),
-                "seed": int(seed),
-                "resolution": [int(width), int(height)],
-                "camera": job.camera or "(framing camera)",
-                "sensor": job.sensor.sensor["type"],  # irradiancemeter: a meter's estimates
-                "time": _time_label(time_code),
-                "passes": int(passes),
-                "colorspace": "lin_rec709_scene",
-                "versions": _versions(),
-            }
-            if job.product.path:
-                metadata["product"] = job.product.path
-                metadata["productName"] = job.product.product_name
-                metadata["layers"] = {ly.name or "beauty": ly.var or "" for ly in job.plan.layers}
-            results.append(
-                RenderResult(
-                    rgb=np.ascontiguousarray(image[..., :3]),
-                    variance=variance,
-                    metadata=metadata,
-                    layers=job.plan.layers,
-                    images=images,
-                    product=job.product,
-                )
-            )
-    dr.sync_thread()
-    for result in results:
-        check_finite_image(result, stage_path)
-    seconds = round(_time.perf_counter() - started, 3)
-    for result in results:
-        result.metadata["seconds"] = seconds
-        result.warnings = list(diag.messages)
-    return results
+            weight = count / spp
+            total = image * weight if total is None else total + image * weight
+            if variance is not None:
+                part = variance * weight * weight
+                variance_sum = part if variance_sum is None else variance_sum + part
+            passes += slice_passes
+        if slices > 1 and self.frame is not None and self.params is not None:
+            self.plan.retime(self.params, self.frame, self.diag)  # back at the frame's time
+        return total.astype(np.float32), variance_sum, passes, times
+
+    def _result(self, job, image, variance, images, passes, seed, spp, times) -> RenderResult:
+        width, height = job.size
+        metadata = {
+            "stage": os.fspath(self.stage_path),
+            "variant": self.backend.variant,
+            "spp": int(spp),
+            "integrator": self.integrator_spec.describe(),
+            "seed": int(seed),
+            "resolution": [int(width), int(height)],
+            "camera": job.camera or "(framing camera)",
+            "sensor": job.sensor.sensor["type"],  # irradiancemeter: a meter's estimates
+            "time": _time_label(self.time_code),
+            "passes": int(passes),
+            "colorspace": "lin_rec709_scene",
+            "versions": _versions(),
+        }
+        if len(times) > 1:
+            shutter = self.shutters[self.jobs.index(job)]
+            metadata["shutter"] = [shutter.open, shutter.close]
+            metadata["time_slices"] = len(times)
+        if job.product.path:
+            metadata["product"] = job.product.path
+            metadata["productName"] = job.product.product_name
+            metadata["layers"] = {ly.name or "beauty": ly.var or "" for ly in job.plan.layers}
+        return RenderResult(
+            rgb=np.ascontiguousarray(image[..., :3]),
+            variance=variance,
+            metadata=metadata,
+            layers=job.plan.layers,
+            images=images,
+            product=job.product,
+        )
+
+
+def shared_sensors(sensor_dicts: list[dict]) -> list[str]:
+    """The scene id of each product's sensor: ``sensor_{index}``, or the id of the first earlier
+    product whose sensor (camera, lens, film, size) is the same.
+
+    ``mi.load_dict`` builds one object for equal dictionaries, so two products through one camera
+    at one size (a beauty and an AOV product) would find one ``sensor_0`` in the scene and no
+    ``sensor_1``; they share the sensor and render each with its own integrator instead.
+    """
+    seen: dict[str, str] = {}
+    ids = []
+    for index, entry in enumerate(sensor_dicts):
+        ids.append(seen.setdefault(_canonical(entry), f"sensor_{index}"))
+    return ids
+
+
+def sensor_index(scene, sensor_id: str, stage_path: str | os.PathLike) -> int:
+    """Index of the sensor ``sensor_id`` in the Mitsuba scene (an :class:`InputError` if Mitsuba
+    built none under that id, rather than a ``ValueError`` from deep inside)."""
+    ids = [s.id() for s in scene.sensors()]
+    if sensor_id not in ids:
+        raise InputError(
+            os.fspath(stage_path),
+            f"Mitsuba's scene has no sensor {sensor_id} (sensors: {', '.join(ids) or 'none'})",
+        )
+    return ids.index(sensor_id)
+
+
+def _canonical(value: Any) -> str:
+    """A sensor dictionary as text that is equal exactly when the dictionaries are equal (Mitsuba
+    transforms as their matrices)."""
+    if isinstance(value, dict):
+        return "{" + ",".join(f"{k}:{_canonical(value[k])}" for k in sorted(value)) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(_canonical(v) for v in value) + "]"
+    if hasattr(value, "matrix"):
+        return "T" + repr(np.asarray(value.matrix, dtype=np.float64).ravel().tolist())
+    return repr(value)
 
 
 def choose_products(
@@ -467,18 +636,28 @@ def _versions() -> dict[str, str]:
 
 
 def scene_objects(shapes: dict[str, Any], emitters: dict[str, Any]) -> dict[str, Any]:
-    """Shapes and emitters keyed by unique Mitsuba scene-dict ids.
+    """Shapes and emitters keyed by unique Mitsuba scene-dict ids (:func:`scene_keys`)."""
+    shape_keys, emitter_keys = scene_keys(shapes, emitters)
+    objects = {shape_keys[name]: entry for name, entry in shapes.items()}
+    objects.update({emitter_keys[name]: entry for name, entry in emitters.items()})
+    return objects
+
+
+def scene_keys(
+    shapes: dict[str, Any], emitters: dict[str, Any]
+) -> tuple[dict[str, str], dict[str, str]]:
+    """The unique Mitsuba scene-dict id of each shape name and of each emitter name.
 
     Prim-derived names (``/a/b#0``, ``/Sun``) become ``mesh_a__b_0`` / ``light_Sun`` (Mitsuba
     ids may not contain ``.`` or ``/``); a name that maps onto an id already taken gets a ``_N``
     suffix, so ``/a/b`` and ``/a__b`` stay two objects. Internal ids (``shapegroup_N``,
     ``instance_N``, ``default_sun``) are kept verbatim, since instances refer to them.
     """
-    items = [("mesh", name, entry) for name, entry in shapes.items()]
-    items += [("light", name, entry) for name, entry in emitters.items()]
-    taken = {name for _, name, _ in items if not name.startswith("/")}
-    objects: dict[str, Any] = {}
-    for prefix, name, entry in items:
+    items = [("mesh", name) for name in shapes]
+    items += [("light", name) for name in emitters]
+    taken = {name for _, name in items if not name.startswith("/")}
+    keys: dict[str, dict[str, str]] = {"mesh": {}, "light": {}}
+    for prefix, name in items:
         key = name
         if name.startswith("/"):
             base = f"{prefix}_" + re.sub(r"[^A-Za-z0-9_]", "_", name[1:].replace("/", "__"))
@@ -486,5 +665,5 @@ def scene_objects(shapes: dict[str, Any], emitters: dict[str, Any]) -> dict[str,
             while key in taken:
                 key, n = f"{base}_{n}", n + 1
             taken.add(key)
-        objects[key] = entry
-    return objects
+        keys[prefix][name] = key
+    return keys["mesh"], keys["light"]

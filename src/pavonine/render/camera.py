@@ -219,9 +219,13 @@ def usd_view_resolution(width: int) -> tuple[int, int]:
 
 def stage_bounds(stage: Usd.Stage, time: Usd.TimeCode, purposes: tuple[str, ...]):
     """The stage's world bounds as usdrecord computes them (``UsdGeomBBoxCache`` with extents
-    hints) for the rendered ``purposes``; ``None`` when empty."""
+    hints) for the rendered ``purposes``; ``None`` when empty. On a deep stack
+    (:func:`pavonine.base.nesting.deep_call`)."""
+    from pavonine.base.nesting import deep_call
+
     cache = UsdGeom.BBoxCache(time, list(purposes), useExtentsHint=True)
-    box = cache.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
+    # recurses once per level of nesting (3000 levels overflowed the main thread's stack)
+    box = deep_call(cache.ComputeWorldBound, stage.GetPseudoRoot()).ComputeAlignedRange()
     if box.IsEmpty():
         return None
     return np.array(box.GetMin(), dtype=np.float64), np.array(box.GetMax(), dtype=np.float64)

@@ -18,6 +18,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from pavonine.base.errors import InputError
+from pavonine.base.nesting import check_nesting, deep_call
 from pavonine.render import (
     curves,
     displacement,
@@ -61,16 +62,18 @@ class SyncedScene:
 
 
 def open_stage(path: str | os.PathLike, diag: Diagnostics) -> Usd.Stage:
-    """Open a USD stage; a missing or unparsable root layer is an :class:`InputError` (one line)."""
+    """Open a USD stage; a missing or unparsable root layer, or prims nested beyond
+    :data:`~pavonine.base.nesting.MAX_NESTING`, is an :class:`InputError` (one line)."""
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError(path, "no such file")
-    try:
-        stage = Usd.Stage.Open(path)
+    try:  # parsing and composing recurse per level of nesting: on a deep stack (base.nesting)
+        stage = deep_call(Usd.Stage.Open, path, depth=0)
     except Tf.ErrorException as exc:
         raise InputError(path, f"cannot open USD stage: {usd_error_message(exc)}") from None
     if stage is None:
         raise InputError(path, "cannot open USD stage")
+    check_nesting(stage, path)
     errors = [first_line(error) for error in stage.GetCompositionErrors()]
     if any(".mtlx" in error.lower() for error in errors):  # usd-core has no usdMtlx
         from pavonine.render.shading.mtlx_documents import substitute_references
@@ -122,6 +125,34 @@ class StageDelegate:
         self._bounds: list[tuple[np.ndarray, np.ndarray]] = []
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
         self.skinning = skel.Skinning()
+        #: (path, kind) of every prim translated at the stage level (kinds; "instance" for an
+        #: instanceable prim): what :mod:`.motion` looks at for time-varying prims
+        self.synced_prims: list[tuple[str, str]] = []
+        self.limits = limits
+        self.base_time: Usd.TimeCode | None = None  # see at_time
+
+    def at_time(self, time: Usd.TimeCode, base: Usd.TimeCode | None = None) -> StageDelegate:
+        """A delegate of the same stage at ``time`` that shares this one's materials and BSDFs
+        (nothing is translated until asked: :meth:`translate_prim`); ``base``: the frame's time
+        when ``time`` is within its shutter (velocities move points from there)."""
+        view = StageDelegate(self.stage, time, self.diag, limits=self.limits)
+        view.base_time = base
+        view._materials, view._bsdfs = self._materials, self._bsdfs
+        view.feather_bsdfs = []  # the scene's feather BSDFs are this delegate's
+        if self.skinning.points or self.skinning.transforms:
+            view.skinning = skel.skin_stage(self.stage, time, view.xforms, self.diag)
+        return view
+
+    def translate_prim(self, prim: Usd.Prim, kind: str) -> dict[str, object]:
+        """The shapes of one stage-level gprim or curves prim at this delegate's time, by shape
+        name (``/prim#0``); none when its transform is unusable at this time (warned)."""
+        if self._world(prim) is None:
+            return {}
+        before = dict(self.scene.shapes)
+        self.scene.shapes.clear()
+        self._sync_prim(prim, kind)
+        made, self.scene.shapes = self.scene.shapes, before
+        return made
 
     def sync(self) -> SyncedScene:
         """Walk the stage and translate every renderable prim (progress on stderr if asked)."""
@@ -149,11 +180,16 @@ class StageDelegate:
                 instancing.native_instance(
                     prim, self.xforms.world(prim), self.table, self._subtree, self.time
                 )
+                self.synced_prims.append((str(prim.GetPath()), "instance"))
                 it.PruneChildren()
             elif kind == kinds.LIGHT:
                 light_prims.append(prim)
-            elif self._sync_prim(prim, kind):
-                it.PruneChildren()
+                self.synced_prims.append((str(prim.GetPath()), kind))
+            else:
+                if kind in kinds.GEOMETRIC:
+                    self.synced_prims.append((str(prim.GetPath()), kind))
+                if self._sync_prim(prim, kind):
+                    it.PruneChildren()
         self.scene.shapes.update(self.table.groups)
         self.scene.shapes.update(self.table.instances)
         self.scene.instance_count = len(self.table.instances)
@@ -238,7 +274,7 @@ class StageDelegate:
     def _surface(self, prim: Usd.Prim) -> mesh.Surface | None:
         """The gprim as polygons: a mesh as authored (subdivided), or an implicit prim tessellated."""
         if prim.GetTypeName() == "Mesh":
-            surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag)
+            surface = mesh.read_mesh(UsdGeom.Mesh(prim), self.time, self.diag, self.base_time)
             if surface is None:
                 return None
             skinned = self.skinning.points.get(str(prim.GetPath()))

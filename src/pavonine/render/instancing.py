@@ -52,6 +52,8 @@ class InstanceTable:
     prototypes: dict[str, Prototype] = field(default_factory=dict)
     world_bounds: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     primvars: dict[str, dict[str, float]] = field(default_factory=dict)  # instance id → values
+    #: instance id → (the PointInstancer's or instanceable prim's path, its index there or -1)
+    sources: dict[str, tuple[str, int]] = field(default_factory=dict)
     limit: int | None = None  # the render ceiling on instances (None: no ceiling)
     on_progress: Callable[[int], None] | None = None  # called with the instance count
 
@@ -74,14 +76,24 @@ class InstanceTable:
         self.prototypes[key] = proto
         return proto
 
+    def sources_of(self, path: str) -> list[tuple[str, int]]:
+        """(instance id, index) of every instance made from the prim at ``path``."""
+        return [(key, index) for key, (where, index) in self.sources.items() if where == path]
+
     def add_instance(
-        self, proto: Prototype, world_usd: np.ndarray, primvars: dict[str, float] | None = None
+        self,
+        proto: Prototype,
+        world_usd: np.ndarray,
+        primvars: dict[str, float] | None = None,
+        source: tuple[str, int] | None = None,
     ) -> None:
         if not proto.group_id:
             return
         import mitsuba as mi
 
         key = f"instance_{len(self.instances)}"
+        if source is not None:
+            self.sources[key] = source
         if primvars:
             self.primvars[key] = primvars
         self.instances[key] = {
@@ -156,7 +168,7 @@ def point_instancer(
                 shapes, bounds = translate_subtree(root, root)
                 prototypes[proto_index] = table.add_prototype(key, shapes, bounds)
         values = {name: float(array[i]) for name, array in per_instance.items()}
-        table.add_instance(prototypes[proto_index], world[i], values)
+        table.add_instance(prototypes[proto_index], world[i], values, (where, i))
     if out_of_range:
         diag.warn(where, f"{out_of_range} protoIndices out of range; those instances skipped")
     if not usable.all():
@@ -182,4 +194,4 @@ def native_instance(
         shapes, bounds = translate_subtree(prim, prim)
         proto = table.add_prototype(key, shapes, bounds)
     primvars = inherited_primvars(prim, Usd.TimeCode.Default() if time is None else time)
-    table.add_instance(proto, world_usd, primvars)
+    table.add_instance(proto, world_usd, primvars, (str(prim.GetPath()), -1))

@@ -175,11 +175,22 @@ def make_topology(
     return Topology(points, counts, safe_indices, triangles, triangle_face, left_handed)
 
 
-def read_mesh(mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics) -> Surface | None:
-    """A ``UsdGeom.Mesh`` as a :class:`Surface`; ``None`` (with a warning) if nothing renders."""
+def read_mesh(
+    mesh: UsdGeom.Mesh, time: Usd.TimeCode, diag: Diagnostics, base: Usd.TimeCode | None = None
+) -> Surface | None:
+    """A ``UsdGeom.Mesh`` as a :class:`Surface`; ``None`` (with a warning) if nothing renders.
+
+    ``base``: the frame's time when ``time`` is within its shutter; authored ``velocities`` (and
+    ``accelerations``) then move the points from the sample at or before ``base``, as USD says
+    (``UsdGeomPointBased::ComputePointsAtTime``)."""
     prim = mesh.GetPrim()
     where = str(prim.GetPath())
     points = attributes.vec3_array(mesh.GetPointsAttr(), time, diag)
+    if points is not None and base is not None and base != time:
+        if mesh.GetVelocitiesAttr().HasAuthoredValue():
+            moved = mesh.ComputePointsAtTime(time, base)
+            if moved is not None and len(moved) == len(points):
+                points = np.asarray(moved, dtype=np.float64).reshape(-1, 3)
     counts = attributes.int_array(mesh.GetFaceVertexCountsAttr(), time, diag)
     indices = attributes.int_array(mesh.GetFaceVertexIndicesAttr(), time, diag)
     if points is None or counts is None or indices is None:

@@ -27,7 +27,9 @@ class RenderOptions:
     ``time`` the time code (default the stage's); ``variant`` Mitsuba's (default
     ``llvm_ad_spectral`` where it loads); ``moments`` per-pixel variance; ``progress`` a
     progress bar; ``products`` the RenderProducts to render (paths or unique names; default all,
-    or the first with ``first_only``); ``limits`` the input limits (:mod:`.limits`).
+    or the first with ``first_only``); ``limits`` the input limits (:mod:`.limits`);
+    ``motion_slices`` the time slices of a blurred image (default
+    :data:`~pavonine.render.motion.DEFAULT_SLICES`, at most ``spp``).
     """
 
     spp: int | None = None
@@ -43,6 +45,7 @@ class RenderOptions:
     products: list[str] | None = None
     first_only: bool = False
     limits: RenderLimits = DEFAULT_LIMITS
+    motion_slices: int | None = None
 
     def but(self, **changes: Any) -> RenderOptions:
         """A copy with ``changes`` (field names as keywords; an unknown one is a ``TypeError``)."""
@@ -58,6 +61,8 @@ class RenderOptions:
                 "max_depth",
                 f"must be -1 (no limit) or 0 to {MAX_DEPTH_LIMIT:,}, got {self.max_depth}",
             )
+        if self.motion_slices is not None and self.motion_slices < 1:
+            raise InputError("motion_slices", f"must be at least 1, got {self.motion_slices}")
         if self.framing not in FRAMINGS:
             raise InputError(
                 "framing", f"must be one of {', '.join(FRAMINGS)}, got {self.framing!r}"

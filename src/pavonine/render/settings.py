@@ -7,9 +7,8 @@ product's authored values override its settings' (UsdRender's inheritance of
 ``RenderSettingsBase``). Command-line values override both. A stage without settings (or without
 products) renders one beauty image.
 
-Attributes of the settings, products and vars that change nothing here by definition (no motion
-blur is rendered, so ``disableMotionBlur`` and ``instantaneousShutter`` hold) are honoured; any
-other authored attribute that is not honoured is warned about, naming it.
+``disableMotionBlur`` and ``instantaneousShutter`` (either) make the product's shutter an instant
+(:mod:`.motion`). Any other authored attribute that is not honoured is warned about, naming it.
 """
 
 from __future__ import annotations
@@ -97,6 +96,8 @@ class ProductSpec:
     pixel_aspect: float = 1.0
     conform: str = "expandAperture"
     disable_dof: bool = False
+    #: ``disableMotionBlur`` or ``instantaneousShutter``: the shutter is an instant (render/motion.py)
+    disable_blur: bool = False
     vars: list[RenderVarSpec] = field(default_factory=list)  # empty: the beauty image alone
 
 
@@ -188,6 +189,9 @@ def _read_base(
     dof = source.GetDisableDepthOfFieldAttr()
     if dof.HasAuthoredValue():
         spec.disable_dof = bool(dof.Get())
+    for attr in (source.GetDisableMotionBlurAttr(), source.GetInstantaneousShutterAttr()):
+        if attr.HasAuthoredValue() and bool(attr.Get()):
+            spec.disable_blur = True
     return spec
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdRender
 
 from pavonine.base.errors import InputError
+from pavonine.base.nesting import deep_call
 from pavonine.render.camera import LENS_NUMBERS
 
 ROOT = "/Turntable"
@@ -40,7 +41,8 @@ def world_bounds(stage: Usd.Stage, time: Usd.TimeCode) -> tuple[np.ndarray, np.n
     cache = UsdGeom.BBoxCache(
         time, [UsdGeom.Tokens.default_, UsdGeom.Tokens.render], useExtentsHint=True
     )
-    box = cache.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
+    # recurses once per level of nesting: on a deep stack (base.nesting)
+    box = deep_call(cache.ComputeWorldBound, stage.GetPseudoRoot()).ComputeAlignedRange()
     if box.IsEmpty():
         raise InputError(str(stage.GetRootLayer().realPath), "no geometry to orbit (empty bounds)")
     return np.array(box.GetMin(), dtype=np.float64), np.array(box.GetMax(), dtype=np.float64)

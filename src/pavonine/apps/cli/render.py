@@ -78,7 +78,11 @@ IMAGE_SCHEMA = {
         },
         "seconds": {
             "type": ["number", "null"],
-            "description": "render time of this image (on the farm: its tasks' summed time)",
+            "description": "seconds its render took (its tasks' sum on a farm)",
+        },
+        "sync_seconds": {
+            "type": ["number", "null"],
+            "description": "of which syncing the stage (a later frame: only what varies)",
         },
     },
 }
@@ -150,6 +154,14 @@ JSON_SCHEMA = {
     "direct light) [default: the RenderSettings' mitsuba:integrator:max_depth, else 8].",
 )
 @click.option(
+    "--motion-slices",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="Time slices of a frame whose camera's shutter is open (motion blur; each a render "
+    "pass of spp/N samples) [default: 16, at most --spp].",
+)
+@click.option(
     "--resolution",
     metavar="WxH",
     help="Image size of every image [default: each product's, else the RenderSettings', else "
@@ -193,6 +205,7 @@ def render(
     png_out: Path | None,
     spp: int | None,
     max_depth: int | None,
+    motion_slices: int | None,
     resolution: str | None,
     cameras: tuple[str, ...],
     products: tuple[str, ...],
@@ -255,7 +268,7 @@ def render(
         report = farm.render_batch(
             stage, batch, spp=spp, workers=workers, scheduler=scheduler, split=split, seed=seed,
             variant=variant, display=display, on_image=_show_with_warnings(), limits=limits,
-            max_depth=max_depth,
+            max_depth=max_depth, motion_slices=motion_slices,
         )  # fmt: skip
     else:
         from pavonine.apps.farm.jobs import plan
@@ -276,6 +289,7 @@ def render(
         options = RenderOptions(
             spp=spp, max_depth=max_depth, resolution=size, seed=seed, time=time_,
             variant=variant, moments=variance, progress=show_progress(), limits=limits,
+            motion_slices=motion_slices,
         )  # fmt: skip
         report = _render_here(stage, views, jobs, options, display)
     images = report["images"]
@@ -301,11 +315,14 @@ def _show(record: dict[str, Any]) -> None:
     written = " + ".join(str(p) for p in (record["exr"], record["png"], record["variance"]) if p)
     w, h = record["resolution"]
     shards = f" in {record['shards']} shards" if record["shards"] > 1 else ""
-    seconds = record.get("seconds")
-    took = f", {seconds:.1f} s" if seconds is not None else ""
+    seconds = ""
+    if record.get("seconds") is not None:
+        seconds = f", {record['seconds']:.2f} s"
+        if record.get("sync_seconds") is not None:
+            seconds += f" (sync {record['sync_seconds']:.3f} s)"
     say(
         f"{written}: {w}×{h}, {record['spp']} spp{shards}, {record['variant']}, "
-        f"channels {', '.join(record['channels'])}{took}"
+        f"channels {', '.join(record['channels'])}{seconds}"
     )
 
 

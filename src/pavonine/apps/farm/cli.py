@@ -150,6 +150,7 @@ def render_batch(
     on_image,
     limits: RenderLimits = DEFAULT_LIMITS,
     max_depth: int | None = None,
+    motion_slices: int | None = None,
 ) -> dict[str, Any]:
     """Run a planned farm call (see :mod:`pavonine.apps.farm`); returns its report fields."""
     from pavonine.apps.farm.cluster import farm_installed, open_cluster
@@ -173,7 +174,7 @@ def render_batch(
     use_cluster = scheduler is not None or (workers or 0) > 0
     options = dict(
         spp=spp, seed=seed, variant=variant, display=display, on_image=on_image, limits=limits,
-        max_depth=max_depth,
+        max_depth=max_depth, motion_slices=motion_slices,
     )  # fmt: skip
     try:
         if use_cluster:

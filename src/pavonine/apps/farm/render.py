@@ -63,6 +63,7 @@ def make_tasks(
     threads: int | None,
     limits: RenderLimits = DEFAULT_LIMITS,
     max_depth: int | None = None,
+    motion_slices: int | None = None,
 ) -> list[RenderTask]:
     """Every task of a batch; stage contents are hashed here, once per stage."""
     from pavonine import __version__
@@ -90,6 +91,7 @@ def make_tasks(
                     threads=threads,
                     limits=limits,
                     max_depth=max_depth,
+                    motion_slices=motion_slices,
                     version=__version__,
                     job=index,
                     shard=k,
@@ -125,6 +127,7 @@ def write_image(
         shard_seeds=[shard_seed(seed, p.shard) for p in parts],
         workers=sorted({p.worker for p in parts}),
         seconds=round(sum(p.seconds.get("task", 0.0) for p in parts), 3),
+        sync_seconds=round(sum(p.seconds.get("sync", 0.0) for p in parts), 4),
     )
     metadata.pop("passes", None)
     variance = None
@@ -177,6 +180,7 @@ def image_record(
         "workers": list(workers),
         "warnings": list(warnings),
         "seconds": _seconds(metadata.get("seconds")),
+        "sync_seconds": metadata.get("sync_seconds"),
     }
 
 
@@ -210,6 +214,7 @@ def run_batch(
     on_image: Callable[[dict[str, Any]], None] | None = None,
     limits: RenderLimits = DEFAULT_LIMITS,
     max_depth: int | None = None,
+    motion_slices: int | None = None,
 ) -> BatchReport:
     """Render ``jobs`` (module docstring); ``cluster`` from :func:`~.cluster.open_cluster`, or
     ``None`` to render one task after another in this process."""
@@ -227,7 +232,7 @@ def run_batch(
     threads = None if cluster is None else cluster.threads_per_render
     tasks = make_tasks(
         jobs, spp=spp, seed=seed, shards=shards, variant=variant, threads=threads, limits=limits,
-        max_depth=max_depth,
+        max_depth=max_depth, motion_slices=motion_slices,
     )  # fmt: skip
     per_job: dict[int, list[RenderShard]] = {}
     needed = {i: sum(1 for t in tasks if t.job == i) for i in range(len(jobs))}

@@ -59,6 +59,7 @@ class RenderTask:
     threads: int | None = None
     limits: RenderLimits = DEFAULT_LIMITS  # the client's render ceilings (--max-…)
     max_depth: int | None = None  # --max-depth (None: the stage's integrator settings)
+    motion_slices: int | None = None  # --motion-slices (None: render.motion.DEFAULT_SLICES)
     version: str = ""
     job: int = 0
     shard: int = 0
@@ -77,6 +78,7 @@ class RenderTask:
             moments=self.moments,
             progress=False,
             limits=self.limits,
+            motion_slices=self.motion_slices,
         )
 
 
@@ -186,11 +188,47 @@ def _set_threads(threads: int | None) -> None:
         dr.set_thread_count(count)
 
 
+#: The render session of the last task this process ran (one: a session holds a Mitsuba scene):
+#: a later task of the same stage, view and settings at another time (the next frame) moves
+#: only the stage's time-varying prims there instead of syncing it again
+#: (:class:`pavonine.render.api.RenderSession`).
+_SESSION: dict[str, Any] = {}
+
+
+def session_key(task: RenderTask) -> tuple:
+    """What a task's session is made of: everything but its time, seed and samples."""
+    return (
+        task.stage, task.stage_sha256, task.camera, task.product, task.resolution, task.moments,
+        task.variant, task.max_depth, task.limits, task.motion_slices, task.version,
+    )  # fmt: skip
+
+
+def render_with_session(task: RenderTask):
+    """The task's image, from the session of the previous task when it is the same view of the
+    same stage (only what varies synced again), else from a new one."""
+    from pavonine.render.api import RenderSession
+
+    key = session_key(task)
+    session = _SESSION.get("session") if _SESSION.get("key") == key else None
+    if session is None:
+        _SESSION.clear()  # the previous scene goes before the next is built
+        options = task.render_options().but(
+            products=[task.product] if task.product else None, first_only=task.product is None
+        )
+        session = RenderSession(task.stage, options)
+        _SESSION.update(key=key, session=session)
+        return session.render(seed=task.seed, spp=task.spp)[0]
+    try:
+        return session.render(time=task.time, seed=task.seed, spp=task.spp)[0]
+    except BaseException:
+        _SESSION.clear()
+        raise
+
+
 def render_task(task: RenderTask) -> RenderShard:
     """Run one :class:`RenderTask` (module docstring)."""
     import warnings
 
-    from pavonine.render.api import render_stage
     from pavonine.render.diagnostics import StageWarning
 
     quiet_input_errors()
@@ -202,7 +240,7 @@ def render_task(task: RenderTask) -> RenderShard:
         _set_threads(task.threads)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", StageWarning)  # returned in .warnings instead
-            result = render_stage(task.stage, task.render_options(), product=task.product)
+            result = render_with_session(task)
         done = time.perf_counter()
     return RenderShard(
         task.job,
@@ -213,7 +251,13 @@ def render_task(task: RenderTask) -> RenderShard:
         dict(result.metadata),
         list(result.warnings),
         worker_name(),
-        {"hash": hashed - start, "render": done - hashed, "task": done - start},
+        {
+            "hash": hashed - start,
+            "render": done - hashed,
+            "task": done - start,
+            "sync": float(result.metadata.get("sync_seconds", 0.0)),
+            "synced_all": float(result.metadata.get("sync") == "full"),
+        },
         layers=_extra_layers(result),
         has_beauty=result.has_beauty,
     )

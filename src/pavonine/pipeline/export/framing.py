@@ -17,9 +17,12 @@ def stage_bound(stage) -> tuple[np.ndarray, np.ndarray]:
     the box the page frames."""
     from pxr import Usd, UsdGeom
 
+    from pavonine.base.nesting import deep_call
+
     purposes = [UsdGeom.Tokens.default_, UsdGeom.Tokens.render]
     bbox = UsdGeom.BBoxCache(Usd.TimeCode.Default(), purposes)
-    box = bbox.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
+    # recurses once per level of nesting: on a deep stack (pavonine.base.nesting)
+    box = deep_call(bbox.ComputeWorldBound, stage.GetPseudoRoot()).ComputeAlignedRange()
     return np.array(box.GetMin(), dtype=np.float64), np.array(box.GetMax(), dtype=np.float64)
 
 

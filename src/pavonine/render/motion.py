@@ -1,0 +1,361 @@
+"""Motion blur as USD means it, on a renderer that has none: time slices of one Mitsuba scene.
+
+USD's camera says when its shutter is open: ``shutter:open`` and ``shutter:close``, in time codes
+relative to the frame's time (``-0.25``, ``0.25``: a quarter of a frame either side).
+``UsdRenderSettings``' ``disableMotionBlur`` (and the older ``instantaneousShutter``) make it an
+instant. A close before the open is, by USD's own rule, no exposure at all: an error here (one
+line naming the layer and the attribute), not a black image. A NaN or infinite shutter is warned
+about and the frame rendered sharp.
+
+Mitsuba 3 has no motion of its own (rays carry a time; shapes ignore it). So a blurred image is
+rendered as ``K`` time slices of one scene (:data:`DEFAULT_SLICES`, at most one per sample per
+pixel): slice ``i`` is at time ``t + open + (i + u_i) / K · (close − open)`` (stratified, ``u_i``
+uniform from the seed: the same seed gives the same times), the scene's parameters are moved there
+in place (``mi.traverse``: a mesh's ``vertex_positions`` and ``vertex_normals``, an instance's and
+a sensor's ``to_world``; Embree's BVH is rebuilt, the LLVM kernel found in Dr.Jit's cache), and
+``spp / K`` samples are rendered there with seed :func:`slice_seed`; the image is the
+sample-weighted mean of the slices. An unblurred image is one slice at the frame's time with the
+render's own seed, so it is the single-time render, bit for bit.
+
+What moves is found the way a Hydra delegate finds dirty prims: a prim is *time-varying* when any
+transform on its way to the root, or any of its own attributes, might vary
+(``TransformMightBeTimeVarying``, ``ValueMightBeTimeVarying``); only those are translated again at
+a slice's time (:meth:`MotionPlan.retime`), by the same translators as the frame's (so points,
+normals, ``widths`` of tessellated curves, subdivision and skinning move with them), with
+``velocities`` and ``angularVelocities`` applied by USD (``ComputeInstanceTransformsAtTime`` with
+the frame as base time). The same plan moves a scene from one frame to the next
+(:class:`pavonine.render.api.RenderSession`).
+
+What does not move (warned once, naming the prim): lights (rendered as at the frame's time),
+Mitsuba curve shapes (tubes without a varying primvar), displaced meshes, meshes inside instance
+prototypes, and a prim whose topology changes within the interval. A slice at which a prim's
+transform or points are NaN keeps the prim where it was at the frame's time (the translator warns,
+naming the attribute).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from pavonine.base.errors import InputError
+from pavonine.render import prim_kinds as kinds
+from pavonine.render.diagnostics import Diagnostics
+
+#: Time slices of a blurred image at most (by default one per MIN_SLICE_SPP samples per pixel).
+DEFAULT_SLICES = 16
+#: Samples per pixel of a slice by default: each slice is one ``mi.render`` call, which traces
+#: the integrator again (the kernel itself is found in Dr.Jit's cache), so a slice must carry
+#: enough samples for that trace not to dominate (``benchmarks/bench_motion.py``).
+MIN_SLICE_SPP = 8
+#: Attributes that move a prim between its time samples (UsdGeomPointBased, PointInstancer).
+MOTION_ATTRIBUTES = ("velocities", "accelerations", "angularVelocities")
+#: Seeds of the slices: ``seed · SLICE_STRIDE + i + 1`` (passes inside a slice add their own).
+SLICE_STRIDE = 1_000_003
+
+
+@dataclass(frozen=True)
+class Shutter:
+    """When the shutter is open, in time codes relative to the frame (``open == close``: an
+    instant)."""
+
+    open: float = 0.0
+    close: float = 0.0
+
+    @property
+    def blurred(self) -> bool:
+        return self.close > self.open
+
+    def times(self, frame: float, slices: int, seed: int) -> list[float]:
+        """The slices' time codes: one stratum each of the open interval, jittered by ``seed``
+        (``[frame]`` for an instant)."""
+        if not self.blurred:
+            return [frame]
+        jitter = np.random.default_rng([int(seed) & 0xFFFFFFFF, 35]).random(slices)
+        width = (self.close - self.open) / slices
+        return [frame + self.open + (i + float(jitter[i])) * width for i in range(slices)]
+
+
+def slice_count(shutter: Shutter, spp: int, slices: int | None, moments: bool) -> int:
+    """Slices of one image: 1 for an instant, else ``slices`` (default: one per
+    :data:`MIN_SLICE_SPP` samples, at most :data:`DEFAULT_SLICES`) but no more than ``spp`` (half
+    of it with ``moments``: each slice needs two passes for a variance)."""
+    if not shutter.blurred:
+        return 1
+    wanted = min(DEFAULT_SLICES, -(-spp // MIN_SLICE_SPP)) if slices is None else slices
+    return max(1, min(wanted, spp // 2 if moments else spp))
+
+
+def slice_spp(spp: int, slices: int) -> list[int]:
+    """``spp`` split over the slices, as evenly as integers allow."""
+    return [spp // slices + (1 if i < spp % slices else 0) for i in range(slices)]
+
+
+def slice_seed(seed: int, index: int, slices: int) -> int:
+    """Slice ``index``'s seed; one slice renders with ``seed`` itself."""
+    if slices == 1:
+        return int(seed)
+    return (int(seed) * SLICE_STRIDE + index + 1) & 0xFFFFFFFF
+
+
+def read_shutter(
+    camera: Usd.Prim | None, time: Usd.TimeCode, disabled: bool, diag: Diagnostics
+) -> Shutter:
+    """The camera's shutter at ``time`` (an instant without a camera, or when the product's
+    settings disable motion blur)."""
+    if camera is None or not camera.IsA(UsdGeom.Camera) or disabled:
+        return Shutter()
+    cam = UsdGeom.Camera(camera)
+    opened = cam.GetShutterOpenAttr().Get(time)
+    closed = cam.GetShutterCloseAttr().Get(time)
+    opened = 0.0 if opened is None else float(opened)
+    closed = 0.0 if closed is None else float(closed)
+    where = str(camera.GetPath())
+    if not (math.isfinite(opened) and math.isfinite(closed)):
+        diag.warn(
+            where,
+            f"shutter:open = {opened:g}, shutter:close = {closed:g} is not a finite interval; "
+            "rendered without motion blur",
+        )
+        return Shutter()
+    if closed < opened:
+        attr = cam.GetShutterCloseAttr()
+        stack = attr.GetPropertyStack(time)
+        layer = stack[0].layer if stack else camera.GetStage().GetRootLayer()
+        raise InputError(
+            f"{layer.realPath or layer.identifier}: {where}.shutter:close",
+            f"{closed:g} is before shutter:open {opened:g}: no exposure (USD: a renderer makes a "
+            "black image); author close ≥ open",
+        )
+    return Shutter(opened, closed)
+
+
+# -- what varies ---------------------------------------------------------------------------------
+
+
+class Variation:
+    """Whether prims might vary in time (a cache over the stage; USD's own might-vary tests)."""
+
+    def __init__(self) -> None:
+        self._xforms: dict[str, bool] = {}
+
+    def transform(self, prim: Usd.Prim) -> bool:
+        """Some transform from ``prim`` up to the root might vary."""
+        chain = []
+        found = False
+        while prim and not prim.IsPseudoRoot():
+            key = str(prim.GetPath())
+            if key in self._xforms:
+                found = self._xforms[key]
+                break
+            chain.append((key, prim))
+            prim = prim.GetParent()
+        for key, p in reversed(chain):
+            xformable = UsdGeom.Xformable(p)
+            found = found or bool(xformable and xformable.TransformMightBeTimeVarying())
+            self._xforms[key] = found
+        return found
+
+    @staticmethod
+    def attributes(prim: Usd.Prim) -> bool:
+        """Some attribute of ``prim`` itself might vary (xformOps included), or it has
+        ``velocities``, ``accelerations`` or ``angularVelocities`` (motion within one sample)."""
+        for attr in prim.GetAttributes():
+            if attr.ValueMightBeTimeVarying():
+                return True
+            if attr.GetName() in MOTION_ATTRIBUTES and attr.HasAuthoredValue():
+                return True
+        return False
+
+    def prim(self, prim: Usd.Prim) -> bool:
+        return self.transform(prim) or self.attributes(prim)
+
+    def subtree(self, root: Usd.Prim) -> bool:
+        """Anything below ``root`` (instance proxies included) might vary."""
+        for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies()):
+            if prim != root and self.attributes(prim):
+                return True
+        return False
+
+
+@dataclass
+class MotionPlan:
+    """The time-varying part of a synced scene and how to move it to another time."""
+
+    delegate: Any  # the StageDelegate that synced the scene (its time is the frame's)
+    gprims: list[tuple[Usd.Prim, str, dict[str, str]]] = field(default_factory=list)
+    instancers: list[tuple[Usd.Prim, list[tuple[str, int]]]] = field(default_factory=list)
+    natives: list[tuple[Usd.Prim, str]] = field(default_factory=list)
+    cameras: list[tuple[Usd.Prim, str, Any]] = field(default_factory=list)  # prim, sensor id, job
+    #: prims that vary but are not moved (what :attr:`complete` is false for)
+    fixed: list[str] = field(default_factory=list)
+    time: float | None = None  # where the scene is now (None: the delegate's time)
+    retimes: int = 0
+
+    @property
+    def static(self) -> bool:
+        return not (self.gprims or self.instancers or self.natives or self.cameras)
+
+    @property
+    def complete(self) -> bool:
+        """Everything that varies is moved by :meth:`retime` (else a new frame needs a full
+        sync)."""
+        return not self.fixed
+
+    def retime(self, params, time: float, diag: Diagnostics, base: float | None = None) -> float:
+        """Move the scene's time-varying objects to ``time`` (``base``: the time velocities are
+        applied from, the frame's); returns the seconds it took."""
+        import time as clock
+
+        started = clock.perf_counter()
+        if self.time == time:
+            return 0.0
+        base_code = Usd.TimeCode(time if base is None else base)
+        view = self.delegate.at_time(Usd.TimeCode(time), base_code)
+        for prim, kind, keys in self.gprims:
+            self._move_gprim(params, view, prim, kind, keys, diag)
+        for prim, instances in self.instancers:
+            self._move_instancer(params, view, prim, instances, base_code)
+        for prim, key in self.natives:
+            world = view.xforms.world(prim)
+            if np.all(np.isfinite(world)):
+                params[f"{key}.to_world"] = _transform(world.T)
+        for prim, sensor_id, job in self.cameras:
+            to_world = job(prim, view, Usd.TimeCode(time))
+            if to_world is not None:
+                params[f"{sensor_id}.to_world"] = _transform(to_world)
+        params.update()
+        self.time = time
+        self.retimes += 1
+        return clock.perf_counter() - started
+
+    def _move_gprim(self, params, view, prim, kind, keys, diag) -> None:
+        import mitsuba as mi
+
+        shapes = view.translate_prim(prim, kind)
+        for name, key in keys.items():
+            new = shapes.get(name)
+            if new is None:  # NaN at this time (warned by the translator): stays put
+                continue
+            if not isinstance(new, mi.Mesh):
+                continue
+            name_in_scene = f"{key}.vertex_positions"
+            current = params[name_in_scene] if name_in_scene in params else None
+            positions = mi.traverse(new)["vertex_positions"]
+            if current is None or dr_width(current) != dr_width(positions):
+                diag.warn(
+                    str(prim.GetPath()),
+                    "topology changes within the time rendered; not moved (as at the first time)",
+                )
+                continue
+            params[f"{key}.vertex_positions"] = positions
+            if f"{key}.vertex_normals" in params and new.has_vertex_normals():
+                params[f"{key}.vertex_normals"] = mi.traverse(new)["vertex_normals"]
+
+    def _move_instancer(self, params, view, prim, instances, base) -> None:
+        instancer = UsdGeom.PointInstancer(prim)
+        matrices = instancer.ComputeInstanceTransformsAtTime(
+            view.time,
+            base,
+            UsdGeom.PointInstancer.IncludeProtoXform,
+            UsdGeom.PointInstancer.IgnoreMask,
+        )
+        if matrices is None:
+            return
+        world = np.array(matrices, dtype=np.float64).reshape(-1, 4, 4) @ view.xforms.world(prim)
+        for key, index in instances:
+            if index < len(world) and np.all(np.isfinite(world[index])):
+                params[f"{key}.to_world"] = _transform(world[index].T)
+
+
+def dr_width(value) -> int:
+    import drjit as dr
+
+    return dr.width(value)
+
+
+def _transform(matrix_mitsuba: np.ndarray):
+    import mitsuba as mi
+
+    return mi.Transform4f(np.asarray(matrix_mitsuba, dtype=np.float64))
+
+
+def plan_motion(
+    delegate,
+    shape_keys: dict[str, str],
+    cameras: list[tuple[Usd.Prim, str, Any]],
+    diag: Diagnostics,
+    warn: bool = True,
+) -> MotionPlan:
+    """What of the synced scene varies in time, and how each piece is moved (module docstring).
+
+    ``shape_keys``: the scene-dict key of each shape name (``/prim#0``); ``cameras``: (camera
+    prim, sensor id, a function ``(prim, view, time) → to_world`` in Mitsuba's layout or None).
+    With ``warn``, what varies but cannot move is warned about, naming the prim.
+    """
+    import mitsuba as mi
+
+    plan = MotionPlan(delegate)
+    variation = Variation()
+
+    def fixed(prim: Usd.Prim, why: str) -> None:
+        plan.fixed.append(str(prim.GetPath()))
+        if warn:
+            diag.warn(str(prim.GetPath()), f"{why}; not moved within the time rendered")
+
+    by_prim: dict[str, dict[str, str]] = {}
+    for name, key in shape_keys.items():
+        if "#" in name and name.startswith("/"):
+            by_prim.setdefault(name.rsplit("#", 1)[0], {})[name] = key
+    for path, kind in delegate.synced_prims:
+        prim = delegate.stage.GetPrimAtPath(path)
+        skinned = path in delegate.skinning.points or path in delegate.skinning.transforms
+        if kind in (kinds.GPRIM, kinds.CURVES):
+            if not (skinned or variation.prim(prim)):
+                continue
+            keys = by_prim.get(path, {})
+            shapes = [delegate.scene.shapes.get(name) for name in keys]
+            if any(not isinstance(s, mi.Mesh) for s in shapes):
+                why = "Mitsuba curves" if kind == kinds.CURVES else "a displaced mesh"
+                fixed(prim, f"time-varying {why} (motion is rendered on meshes)")
+                continue
+            if keys:
+                plan.gprims.append((prim, kind, keys))
+        elif kind == kinds.INSTANCER:
+            instancer = UsdGeom.PointInstancer(prim)
+            targets = instancer.GetPrototypesRel().GetForwardedTargets()
+            if any(variation.subtree(prim.GetStage().GetPrimAtPath(t)) for t in targets):
+                fixed(prim, "time-varying prims inside its prototypes")
+            if instancer.GetProtoIndicesAttr().ValueMightBeTimeVarying():
+                fixed(prim, "protoIndices vary (instances appear or vanish)")
+            elif variation.prim(prim):
+                instances = delegate.table.sources_of(path)
+                plan.instancers.append((prim, instances))
+        elif kind == "instance":
+            if variation.subtree(prim):
+                fixed(prim, "time-varying prims inside an instance's prototype")
+            if variation.transform(prim):
+                plan.natives.extend((prim, key) for key, _ in delegate.table.sources_of(path))
+        elif kind == kinds.LIGHT and variation.prim(prim):
+            fixed(prim, "a time-varying light (lights are rendered as at the frame's time)")
+    for prim, sensor_id, to_world in cameras:
+        if variation.transform(prim):
+            plan.cameras.append((prim, sensor_id, to_world))
+        lens = ("focalLength", "horizontalAperture", "verticalAperture", "fStop", "focusDistance")
+        if any(
+            prim.GetAttribute(n) and prim.GetAttribute(n).ValueMightBeTimeVarying() for n in lens
+        ):
+            fixed(prim, "a time-varying lens (the lens of the first time is used)")
+    plan.time = frame_time(delegate.time)
+    return plan
+
+
+def frame_time(time: Usd.TimeCode) -> float | None:
+    """The time code as a number (``None`` for USD's default and earliest times)."""
+    if time.IsDefault() or time.IsEarliestTime():
+        return None
+    return float(time.GetValue())

@@ -1,0 +1,199 @@
+"""Motion blur (``pavonine.render.motion``): the camera's shutter, time slices of one scene, and
+frames synced incrementally (``RenderSession``). The stage: ``tests/motion_scene.py``."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from motion_scene import SIZE, coverage, crossings, expected_streak, motion_stage
+
+from pavonine.apps.cli import cli
+from pavonine.render import motion
+from pavonine.render.api import RenderSession, render_stage
+from pavonine.render.diagnostics import StageWarning
+from pavonine.render.imageio import write_exr
+from pavonine.render.options import RenderOptions
+
+pytestmark = pytest.mark.render
+ROW = SIZE[1] // 2
+SHUTTER = (-0.25, 0.25)
+
+
+def render(path: Path, **options):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StageWarning)
+        return render_stage(path, RenderOptions(progress=False, **{"time": 1.0, **options}))
+
+
+def plateau(folder: Path, how: str = "xform") -> float:
+    """The radiance of the glowing surface in the image, read from a sharp render at the frame's
+    time (the quad's, or the backdrop's beside it for ``instancer``)."""
+    motion_stage(folder / "sharp.usda", None, how)
+    sharp = render(folder / "sharp.usda", spp=64)
+    column = 4 if how == "instancer" else SIZE[0] // 2
+    return float(sharp.rgb[ROW - 4 : ROW + 4, column - 4 : column + 4, 0].mean())
+
+
+@pytest.mark.parametrize("how", ["xform", "points", "camera", "velocities", "instancer"])
+def test_streak_width_and_profile_match_the_motion(tmp_path, how):
+    """The quad moves 16 px while the shutter is open: its streak (a trapezoid, 28 px wide, 4 px
+    of plateau at 12/16 of the quad's radiance) matches the one computed from the motion alone,
+    its edges and its 25/50/60 % crossings within 2 px, its plateau within 6 %, whether the quad
+    moves by a transform, by points, by velocities (of points or of a PointInstancer's instance)
+    or the camera moves."""
+    path = tmp_path / "moving.usda"
+    motion_stage(path, SHUTTER, how)
+    level = plateau(tmp_path, how)
+    result = render(path, spp=256)
+    assert result.metadata["time_slices"] == motion.DEFAULT_SLICES
+    assert result.metadata["shutter"] == list(SHUTTER)
+    measured = coverage(result.rgb, how, level)
+    wanted = expected_streak(SHUTTER)
+    for fraction in (0.02, 0.25, 0.5, 0.6):
+        got, want = crossings(measured, fraction), crossings(wanted, fraction)
+        assert abs(got[0] - want[0]) <= 2 and abs(got[1] - want[1]) <= 2, (fraction, got, want)
+    assert (measured > 0.02).sum() == pytest.approx((wanted > 0.02).sum(), abs=2)
+    top = wanted == wanted.max()  # the plateau's columns
+    assert measured[top].mean() == pytest.approx(wanted.max(), rel=0.06)
+    assert measured.sum() == pytest.approx(wanted.sum(), rel=0.03)  # all the light, spread
+
+
+@pytest.mark.parametrize(
+    "shutter, settings",
+    [
+        (SHUTTER, {"instantaneousShutter": True}),
+        (SHUTTER, {"disableMotionBlur": True}),
+        ((0.1, 0.1), None),
+        (None, None),
+    ],
+)
+def test_an_instant_renders_sharp_bit_for_bit(tmp_path, shutter, settings):
+    """``instantaneousShutter``, ``disableMotionBlur``, a zero interval and no shutter at all
+    render the frame's time, with the render's own seed: the unblurred image, bit for bit."""
+    sharp_path = tmp_path / "sharp.usda"
+    motion_stage(sharp_path, None)
+    path = tmp_path / "instant.usda"
+    motion_stage(path, shutter, settings=settings)
+    result = render(path, spp=8, seed=3)
+    assert "time_slices" not in result.metadata
+    assert np.array_equal(result.rgb, render(sharp_path, spp=8, seed=3).rgb)
+    assert (result.rgb[ROW, :, 0] > 0.1).sum() == 12  # the quad's 12 columns, sharp
+
+
+def test_close_before_open_is_one_line_error_naming_file_and_field(tmp_path):
+    path = tmp_path / "backwards.usda"
+    motion_stage(path, (0.25, -0.25))
+    out = tmp_path / "out.exr"
+    result = CliRunner().invoke(cli, ["render", str(path), "-o", str(out), "--spp", "2", "-q"])
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("error: ")]
+    assert len(lines) == 1, result.output
+    assert f"{path}: /Cam.shutter:close: -0.25 is before shutter:open 0.25" in lines[0]
+    assert not out.exists()
+
+
+def test_nan_shutter_and_nan_time_samples_are_warned_never_rendered(tmp_path):
+    """A NaN shutter: warned, sharp. A NaN time sample of the motion: the slices where the
+    transform is NaN keep the quad at the frame's time (the translator's warning names the
+    xformOp); the image is finite and the quad is where the motion puts it otherwise."""
+    path = tmp_path / "nan_shutter.usda"
+    motion_stage(path, (float("nan"), 0.25))
+    result = render(path, spp=4)
+    assert any(
+        "/Cam: shutter:open = nan" in w and "without motion blur" in w for w in result.warnings
+    )
+    assert (result.rgb[ROW, :, 0] > 0.1).sum() == 12
+    path = tmp_path / "nan_sample.usda"
+    motion_stage(path, SHUTTER, samples={0.0: -1.0, 1.0: 0.0, 1.125: float("nan"), 2.0: 1.0})
+    result = render(path, spp=64)
+    assert np.isfinite(result.rgb).all()
+    assert any("/World/Quad: transform is NaN" in w and "xformOp:translate" in w
+               for w in result.warnings)  # fmt: skip
+    row = result.rgb[ROW, :, 0]
+    assert row[:14].max() == 0.0 and row[50:].max() == 0.0  # nothing beyond the motion
+    assert (row > 0).sum() >= 12
+
+
+def test_blurred_frame_is_the_mean_of_its_instantaneous_sub_frames(tmp_path):
+    """The blurred image equals the sample-weighted mean of K single-time renders at the slices'
+    times: with the slices' own seeds to float rounding, and, with independent seeds, by
+    ``pavonine compare --method stat`` (the definition of the blur, tested by its noise)."""
+    path = tmp_path / "moving.usda"
+    motion_stage(path, SHUTTER)
+    instant = tmp_path / "sharp.usda"  # the same motion without a shutter: sub-frames
+    motion_stage(instant, None)
+    spp, slices, seed = 64, 8, 5
+    blurred = render(path, spp=spp, seed=seed, motion_slices=slices, moments=True)
+    times = motion.Shutter(*SHUTTER).times(1.0, slices, seed)
+    counts = motion.slice_spp(spp, slices)
+    same = np.zeros_like(blurred.rgb, dtype=np.float64)
+    other = np.zeros_like(same)
+    other_variance = np.zeros_like(same)
+    for i, (when, count) in enumerate(zip(times, counts, strict=True)):
+        sub = render(instant, spp=count, seed=motion.slice_seed(seed, i, slices), time=when,
+                     moments=True)  # fmt: skip
+        same += sub.rgb * (count / spp)
+        independent = render(instant, spp=count, seed=100 + i, time=when, moments=True)
+        other += independent.rgb * (count / spp)
+        other_variance += independent.variance * (count / spp) ** 2
+    assert np.abs(blurred.rgb - same).max() < 1e-5
+    assert not np.array_equal(blurred.rgb, other)
+    files = {}
+    for name, image, variance in (
+        ("blurred", blurred.rgb, blurred.variance),
+        ("mean", other, other_variance),
+    ):
+        files[name] = tmp_path / f"{name}.exr"
+        write_exr(files[name], image.astype(np.float32), {})
+        write_exr(tmp_path / f"{name}.variance.exr", variance.astype(np.float32), {})
+    result = CliRunner().invoke(
+        cli,
+        ["compare", str(files["blurred"]), str(files["mean"]), "--method", "stat",
+         "--test-variance", str(tmp_path / "blurred.variance.exr"),
+         "--ref-variance", str(tmp_path / "mean.variance.exr"), "-o", str(tmp_path / "maps")],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    sharp = render(instant, spp=spp, seed=seed, moments=True)
+    write_exr(tmp_path / "sharp.exr", sharp.rgb, {})
+    result = CliRunner().invoke(
+        cli,
+        ["compare", str(tmp_path / "sharp.exr"), str(files["mean"]), "--method", "stat",
+         "--ref-variance", str(tmp_path / "mean.variance.exr"), "-o", str(tmp_path / "maps")],
+    )  # fmt: skip
+    assert result.exit_code == 1, result.output  # the test can fail: a sharp frame differs
+
+
+def test_frames_after_the_first_sync_only_what_varies_and_equal_a_fresh_render(tmp_path):
+    """A session synced at frame 0 and moved to frame 1 and 2 (only the quad translated again)
+    gives, unblurred, the single-time render of each frame with the same seed, bit for bit."""
+    path = tmp_path / "moving.usda"
+    motion_stage(path, None)
+    session = RenderSession(path, RenderOptions(spp=8, seed=2, time=0.0, progress=False))
+    assert [p.GetPath().pathString for p, _, _ in session.plan.gprims] == ["/World/Quad"]
+    assert session.plan.complete
+    first = session.render()[0]
+    for frame in (1.0, 2.0, 0.5):
+        moved = session.render(time=frame)[0]
+        fresh = render(path, spp=8, seed=2, time=frame)
+        assert moved.metadata["time"] == frame
+        assert np.array_equal(moved.rgb, fresh.rgb), frame
+    assert len(session.sync_seconds) == 4 and session.plan.retimes >= 3
+    assert not np.array_equal(first.rgb, moved.rgb)
+
+
+def test_an_open_shutter_on_a_still_stage_moves_nothing(tmp_path):
+    """Nothing varies: the slices render the same scene (no parameters to move), the image is the
+    sharp one up to noise, and nothing is warned."""
+    path = tmp_path / "still.usda"
+    motion_stage(path, SHUTTER, samples={1.0: 0.0})
+    result = render(path, spp=32)
+    assert result.metadata["time_slices"] == 4 and result.warnings == []
+    sharp_path = tmp_path / "sharp.usda"
+    motion_stage(sharp_path, None, samples={1.0: 0.0})
+    sharp = render(sharp_path, spp=32)
+    assert (result.rgb[ROW, :, 0] > 0.1).sum() == 12
+    assert result.rgb.mean() == pytest.approx(sharp.rgb.mean(), rel=0.03)
