@@ -236,19 +236,21 @@ def block_ndf(
 
 #: Finest cell above one block: 2 × 2 blocks (level 1); the coarsest, 2^MAX_LEVEL blocks a side.
 MAX_LEVEL = 12
-#: Bins of grain places evaluated around the half-vector's (each side: 2).
-COUNT_BINS = 5
+#: Bins of grain places counted around the half-vector's (one each side).
+COUNT_BINS = 3
 #: Below this expected count a bin's count is drawn from its Poisson law (inversion over
-#: :data:`POISSON_TERMS` terms), above it from a normal law clamped at 0 and rescaled to its exact
-#: mean (Zirr & Kaplanyan 2016 and Deliot & Belcour 2023 approximate the binomial law by a normal
-#: one throughout; a rare bin's count is far from normal).
-POISSON_SWITCH = 3.0
-POISSON_TERMS = 12
+#: :data:`POISSON_TERMS` terms: P(N > 28) < 2·10⁻⁵ at the switch); from it on, from a normal law
+#: (Zirr & Kaplanyan 2016 and Deliot & Belcour 2023 approximate the binomial law by a normal one
+#: throughout; a rare bin's count is far from normal). The normal deviate is Irwin–Hall's sum of
+#: four uniforms (|z| ≤ √12), so ``mean + √mean z`` is never negative from the switch on and the
+#: count's mean is exact without clamping.
+POISSON_SWITCH = 12.0
+POISSON_TERMS = 28
 #: A bin expected to hold fewer grains than this (the far tail of the lobe) keeps its mean, X = 1.
 TINY_MEAN = 1.0e-4
 LN2 = math.log(2.0)
 INV_SQRT2 = 1.0 / math.sqrt(2.0)
-INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+SQRT3 = math.sqrt(3.0)
 
 
 def normal_cdf(x: Any, ops: Any = NUMPY) -> Any:
@@ -279,7 +281,8 @@ def count_model(
     ``c = Σ_k E[w_k²] + Σ_{k≠l} E[w_k w_l] s_w / √(s_w² + p²)
     = 2/(G + 1) + (G − 1)/(G + 1) · s_w/√(s_w² + p²)`` (Dirichlet(1, …, 1) shares: E[w_k²] =
     2/(G(G + 1)), E[w_k w_l] = 1/(G(G + 1)); two grains of a block lie a normal of variance 2p²
-    apart). Counting in bins of width Δ blended by the posterior weights gives
+    apart). Counting in bins of width Δ blended by the posterior weights (:data:`COUNT_BINS` of
+    them, the outer two taking the tails) gives
     ``Σ_b ω_b² / (M Δ ρ)``, which is ``1 / (2√π r M ρ)`` times ``f``, the mean of ``Σ_b ω_b²``
     over where the grain falls in its bin divided by its continuum value ``Δ/(2√π r)``. So a block
     counts as ``f / c`` independent, equal grains."""
@@ -288,10 +291,13 @@ def count_model(
     c = 2.0 / (grains + 1) + (grains - 1) / (grains + 1) * within_550 / math.hypot(
         within_550, speckle_550
     )
-    offsets = (NUMPY.asarray(range(200)) + 0.5) / 200.0
-    edges = NUMPY.asarray(range(-8, 10))[:, None] - offsets[None, :]  # in bins, about the grain
+    offsets = (NUMPY.asarray(range(200)) + 0.5) / 200.0  # the posterior's place in its bin
+    # the inner edges of the COUNT_BINS bins about it, in bins; the outer bins take the tails
+    edges = NUMPY.asarray(range(1 - COUNT_BINS // 2, COUNT_BINS // 2 + 1))[:, None] - offsets
     mass = normal_cdf(edges * (width / r))
-    omega2 = ((mass[1:] - mass[:-1]) ** 2).sum(axis=0).mean()
+    zero, one = 0.0 * offsets[None, :], 1.0 + 0.0 * offsets[None, :]
+    cumulative = NUMPY.asarray([*zero, *mass, *one])
+    omega2 = ((cumulative[1:] - cumulative[:-1]) ** 2).sum(axis=0).mean()
     f = float(omega2 / (width / (2.0 * math.sqrt(math.pi) * r)))
     return CountModel(width, f / c)
 
@@ -304,34 +310,38 @@ def footprint_level(area_um2: Any, block_length_um: float, barbule_width_um: flo
     return (0.5 / LN2) * ops.log(n)
 
 
-def count_ratio(mean: Any, u1: Any, u2: Any, ops: Any = NUMPY) -> Any:
-    """``X = N / mean`` for a count ``N`` with expectation ``mean`` from two uniforms in (0, 1):
-    Poisson by inversion below :data:`POISSON_SWITCH`, else ``max(0, mean + √mean z)`` (z from
-    Box–Muller) divided by its own expectation ``mean Φ(a) + √mean φ(a)``, ``a = √mean`` (the
-    mean of a normal clamped at 0), so ``E[X] = 1`` in both; ``X = 1`` below :data:`TINY_MEAN`."""
+def irwin_hall(h: Any, ops: Any = NUMPY) -> Any:
+    """A normal deviate (mean 0, variance 1 up to 2·10⁻⁵, |z| ≤ √12) from the four bytes of the
+    32-bit hash ``h``: ``(Σ u_i − 2) √3`` for the four uniforms ``u_i = (byte_i + ½)/256``."""
+    total = 0.0
+    for k in range(4):
+        total = total + ops.to_float((h >> (8 * k)) & 0xFF)
+    return ((total + 2.0) * (1.0 / 256.0) - 2.0) * SQRT3
+
+
+def count_ratio(mean: Any, u: Any, z: Any, ops: Any = NUMPY) -> Any:
+    """``X = N / mean`` for a count ``N`` with expectation ``mean``: Poisson by inversion of the
+    uniform ``u`` below :data:`POISSON_SWITCH`, else ``mean + √mean z`` (``z``: :func:`irwin_hall`,
+    never below −√12, so never negative here), ``E[X] = 1`` in both; ``X = 1`` below
+    :data:`TINY_MEAN`."""
     m = ops.maximum(mean, TINY_MEAN)
     p = ops.exp(-m)
     cdf = p
     n = 0.0
     for k in range(1, POISSON_TERMS + 1):
-        n = n + ops.select(u1 > cdf, 1.0, 0.0)
-        p = p * (m / k)
+        n = n + ops.select(u > cdf, 1.0, 0.0)
+        p = p * m * (1.0 / k)
         cdf = cdf + p
-    s = ops.sqrt(m)
-    z = ops.sqrt(-2.0 * ops.log(u1)) * ops.cos((2.0 * math.pi) * u2)
-    clamped_mean = m * normal_cdf(s, ops) + s * INV_SQRT_2PI * ops.exp(-0.5 * m)
-    normal = ops.maximum(m + s * z, 0.0) / clamped_mean
-    ratio = ops.select(m < POISSON_SWITCH, n / m, normal)
+    ratio = ops.select(m < POISSON_SWITCH, n / m, 1.0 + z / ops.sqrt(m))
     return ops.select(mean < TINY_MEAN, 1.0, ratio)
 
 
 class CellCounts(NamedTuple):
-    """One level's cell under a point: its share of the blend, the first bin it holds counts for
-    (a whole number, units of ``Δu``), and ``X_b`` for :data:`COUNT_BINS` bins from there."""
+    """The cell under a point at one level: its share of the point's lobe (0 or 1, the level
+    chosen per block: :func:`footprint_at`) and its gain ``Σ_b ω_b X_b`` over the smooth lobe."""
 
     weight: Any
-    first_bin: Any
-    ratios: tuple[Any, ...]
+    gain: Any
 
 
 def cell_counts(
@@ -349,71 +359,79 @@ def cell_counts(
     ops: Any = NUMPY,
 ) -> CellCounts:
     """The counts of the level-``level`` cell holding the point (``along_um``, ``across_um``) in
-    the bins around the half-vector's slope ``slope_x`` along the barbule (its grains' posterior
-    place ``u* = x σ_μ/σ_t²`` with the 550 nm ``spread`` σ_μ and ``total`` σ_t). Counts are of
-    integers only (cell, level, bin, seed): the same on every process and sample split."""
+    the :data:`COUNT_BINS` bins around the half-vector's slope ``slope_x`` along the barbule,
+    blended by the posterior weights of a grain's place at 550 nm (``spread`` σ_μ, ``total``
+    σ_t; the outermost bins take the tails, so the weights sum to 1 and the cell's lobe averages
+    to the smooth one at every wavelength). Counts are of integers only (cell, level, bin, seed):
+    the same on every process and sample split."""
     side = ops.floor(ops.exp(level * LN2) + 0.5)  # 2^level, exactly
     cell_along = ops.to_uint32(ops.floor(along_um / (block_length_um * side)))
     cell_across = ops.to_uint32(ops.floor(across_um / (barbule_width_um * side)))
-    u_star = slope_x * (spread / (total * total))
+    total2 = total * total
+    u_star = slope_x * (spread / total2)
+    inv_r = total / ops.sqrt(ops.maximum(total2 - spread * spread, 1e-20))
     first = ops.floor(u_star / model.bin_width) - (COUNT_BINS // 2)
     grains = model.grains_per_block * side * side
     level_salt = lowbias32(seed ^ ((ops.to_uint32(level) * 0x632BE5AB) & MASK32))
-    ratios = []
-    lower = normal_cdf(first * model.bin_width, ops)
+    gain = 0.0
+    lower_place = normal_cdf(first * model.bin_width, ops)
+    lower_weight = 0.0
     for j in range(COUNT_BINS):
-        upper = normal_cdf((first + (j + 1)) * model.bin_width, ops)
+        edge = (first + (j + 1)) * model.bin_width
+        upper_place = normal_cdf(edge, ops)
+        upper_weight = 1.0 if j == COUNT_BINS - 1 else normal_cdf((edge - u_star) * inv_r, ops)
         bin_salt = lowbias32(level_salt ^ ((ops.to_uint32(first + j) * 0x9E3779B1) & MASK32))
         h1 = block_hash(cell_across, cell_along, bin_salt)
-        h2 = lowbias32(h1 ^ 0x68E31DA4)
-        u1 = (ops.to_float(h1) + 0.5) * (1.0 / 4294967296.0)
-        u2 = ops.to_float(h2) * (1.0 / 4294967296.0)
-        ratios.append(count_ratio(grains * (upper - lower), u1, u2, ops))
-        lower = upper
-    return CellCounts(weight, first, tuple(ratios))
-
-
-def cell_gain(
-    counts: CellCounts, model: CountModel, slope_x: Any, spread: Any, within: Any, ops=NUMPY
-) -> Any:
-    """``Σ_b ω_b(x) X_b`` at one wavelength (σ_μ ``spread``, s_w ``within``): the cell's lobe over
-    the smooth lobe. The outermost bins take the posterior's tails, so the weights sum to 1."""
-    total2 = spread * spread + within * within
-    u_star = slope_x * spread / total2
-    inv_r = ops.sqrt(total2) / within
-    gain = 0.0
-    lower = 0.0
-    for j, ratio in enumerate(counts.ratios):
-        if j == len(counts.ratios) - 1:
-            upper = 1.0
-        else:
-            edge = (counts.first_bin + (j + 1)) * model.bin_width
-            upper = normal_cdf((edge - u_star) * inv_r, ops)
-        gain = gain + (upper - lower) * ratio
-        lower = upper
-    return gain
+        u = (ops.to_float(h1) + 0.5) * (1.0 / 4294967296.0)
+        z = irwin_hall(lowbias32(h1 ^ 0x68E31DA4), ops)
+        ratio = count_ratio(grains * (upper_place - lower_place), u, z, ops)
+        gain = gain + (upper_weight - lower_weight) * ratio
+        lower_place, lower_weight = upper_place, upper_weight
+    return CellCounts(weight, gain)
 
 
 class Footprint(NamedTuple):
-    """What a pixel's footprint holds at a point: one block (weight ``block_weight``, the finest
-    level) and the cells of two levels (:class:`CellCounts`), their weights summing to 1."""
+    """What a pixel's footprint holds at a point: its block (weight ``block_weight``) or the cell
+    of the chosen level (:class:`CellCounts`), the weights summing to 1."""
 
     block: Block
     block_weight: Any
     cells: tuple[CellCounts, ...]
-    model: CountModel
 
 
-def level_weights(level: Any, ops: Any = NUMPY) -> tuple[Any, Any, Any, Any, Any]:
-    """``(block_weight, coarse, w_coarse, fine, w_fine)``: a continuous level ℓ between two whole
-    levels k ≤ ℓ < k + 1 blends them linearly (as Zirr & Kaplanyan 2016 blend their levels of
-    detail); level 0 is the block
-    itself. ``fine`` ≥ 1 is level k (weight ``w_fine``, 0 when k = 0), ``coarse`` = k + 1."""
+def level_choice(
+    level: Any,
+    along_um: Any,
+    across_um: Any,
+    block_length_um: float,
+    barbule_width_um: float,
+    seed: Any,
+    ops: Any = NUMPY,
+) -> tuple[Any, Any]:
+    """``(chosen, is_block)``: the whole level a point's block takes for a continuous level ℓ,
+    k ≤ ℓ < k + 1: k + 1 with probability ℓ − k, else k (level 0 is the block itself,
+    ``is_block``), drawn from a hash of the block's integer place, so over the blocks of a cell
+    the lobe is the linear blend of the two levels (as Zirr & Kaplanyan 2016 blend their levels
+    of detail) at the cost of one level, and a block keeps its choice while ℓ moves a little."""
     clamped = ops.minimum(ops.maximum(level, 0.0), MAX_LEVEL - 1e-3)
     k = ops.floor(clamped)
-    t = clamped - k
-    block_weight = ops.select(k < 0.5, 1.0 - t, 0.0)
-    return block_weight, k + 1.0, t, ops.maximum(k, 1.0), ops.select(k < 0.5, 0.0, 1.0 - t)
+    barbule_index, block_index = block_cell(
+        along_um, across_um, block_length_um, barbule_width_um, ops
+    )
+    h = block_hash(barbule_index, block_index, lowbias32(seed ^ 0x3C6EF372))
+    u = (ops.to_float(h) + 0.5) * (1.0 / 4294967296.0)
+    chosen = ops.select(u < clamped - k, k + 1.0, k)
+    return chosen, chosen < 0.5
+
+
+def footprint_block_weight(
+    level, along_um, across_um, block_length_um, barbule_width_um, seed, ops: Any = NUMPY
+) -> Any:
+    """1 where the point's block is its own lobe (:func:`level_choice`), else 0."""
+    _, is_block = level_choice(
+        level, along_um, across_um, block_length_um, barbule_width_um, seed, ops
+    )
+    return ops.select(is_block, 1.0, 0.0)
 
 
 def footprint_ndf(
@@ -430,15 +448,13 @@ def footprint_ndf(
 ) -> Any:
     """The normal distribution a footprint holds at one wavelength: its block's
     (:func:`block_ndf`, weight ``block_weight``) plus the smooth Beckmann lobe (``alpha_x`` =
-    √2 tan σ_along) times each level's :func:`cell_gain`, by the levels' weights. ``within`` and
-    ``speckle`` are :func:`speckle_split`'s at this wavelength; ``constants`` the material's."""
+    √2 tan σ_along) times the cell's gain. ``within`` and ``speckle`` are :func:`speckle_split`'s
+    at this wavelength (``constants``: the material's, unused but for the signature's sake)."""
     d_block = block_ndf(hx, hy, hz, barbule.SQRT2 * within, alpha_y, footprint.block, speckle, ops)
     smooth = barbule.beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, ops)
-    spread = ops.sqrt(constants.glitter * math.tan(constants.block_sigma) ** 2 + speckle * speckle)
-    slope_x = -hx / ops.maximum(hz, 1e-6)
     gain = 0.0
     for cell in footprint.cells:
-        gain = gain + cell.weight * cell_gain(cell, footprint.model, slope_x, spread, within, ops)
+        gain = gain + cell.weight * cell.gain
     return footprint.block_weight * d_block + smooth * gain
 
 
@@ -459,22 +475,22 @@ def footprint_at(
     """The :class:`Footprint` of level ``level`` (:func:`footprint_level`) at a point of the
     block grid (``along_um``, ``across_um``, its ``block``), for the half-vector's slope
     ``slope_x`` along the barbule (``spread``, ``total``: σ_μ and σ_t at 550 nm)."""
-    block_weight, coarse, w_coarse, fine, w_fine = level_weights(level, ops)
-    cells = tuple(
-        cell_counts(
-            model,
-            lvl,
-            w,
-            along_um,
-            across_um,
-            block_length_um,
-            barbule_width_um,
-            seed,
-            slope_x,
-            spread,
-            total,
-            ops,
-        )
-        for lvl, w in ((fine, w_fine), (coarse, w_coarse))
+    chosen, is_block = level_choice(
+        level, along_um, across_um, block_length_um, barbule_width_um, seed, ops
     )
-    return Footprint(block, block_weight, cells, model)
+    block_weight = ops.select(is_block, 1.0, 0.0)
+    cell = cell_counts(
+        model,
+        ops.maximum(chosen, 1.0),
+        1.0 - block_weight,
+        along_um,
+        across_um,
+        block_length_um,
+        barbule_width_um,
+        seed,
+        slope_x,
+        spread,
+        total,
+        ops,
+    )
+    return Footprint(block, block_weight, (cell,))

@@ -353,6 +353,20 @@ class FeatherBSDF:
         )
         return block, along, across, seed, self._footprint_level(si)
 
+    def _block_weight(self, glint):
+        """1 where the point's block is its own lobe at the footprint's level, else 0
+        (:func:`glitter.level_choice`)."""
+        _, along, across, seed, level = glint
+        return glitter.footprint_block_weight(
+            level,
+            along,
+            across,
+            self.params.block_length_um,
+            self.params.barbule_width_um,
+            seed,
+            self.material.ops,
+        )
+
     def _footprint(self, glint, wi, wo):
         """What the pixel's footprint holds for the barbule-frame pair (``wi``, ``wo``): the
         block and the cells' counts around the half-vector (:func:`glitter.footprint_at`)."""
@@ -402,7 +416,7 @@ class FeatherBSDF:
         )
         glossy = distr.pdf(wi, m)
         if glint is not None:
-            block_weight = glitter.level_weights(glint[4], self.material.ops)[0]
+            block_weight = self._block_weight(glint)
             glossy = (
                 block_weight * self._block_normal_pdf(m, glint[0]) + (1.0 - block_weight) * glossy
             )
@@ -484,7 +498,7 @@ class FeatherBSDF:
         from_block = mi.Bool(False)
         if glint is not None:
             # the block's lobes with the footprint's block weight, else the smooth lobe
-            block_weight = glitter.level_weights(glint[4], self.material.ops)[0]
+            block_weight = self._block_weight(glint)
             u = sample1 / dr.maximum(share, 1e-30)
             from_block = u < block_weight
             u_block = u / dr.maximum(block_weight, 1e-30)
