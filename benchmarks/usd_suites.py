@@ -24,7 +24,9 @@ stage and the run goes on. Per stage the worker measures, and the parent checks:
   for stages with subdivision surfaces (which usdrecord draws as their control cage) at least
   95 % of our silhouette lies inside the screenshot's;
 * ``supported``: the delegate did not warn that anything in the stage is "not supported" (bad
-  data that is warned about and rendered around is fine: that is the expected behaviour).
+  data that is warned about and rendered around is fine: that is the expected behaviour);
+* ``products``: on a stage with several RenderProducts, every one renders, each to its own image
+  (``render_products`` at 16×12, 1 spp).
 
 Stages without a camera are rendered through the renderer's own default view, which is that same
 ``usdrecord`` framing camera (``pavonine.render.camera.usd_view_camera``), at usdrecord's aspect
@@ -294,6 +296,15 @@ def run_worker(stage_path: Path, out: Path, size: int, spp: int) -> dict:
         plain = render_stage(blank, spp=spp, resolution=resolution, camera=camera, progress=False)
         diff = np.abs(np.nan_to_num(plain.rgb.astype(np.float64)) - rgb).mean(axis=2)
         result["texture_difference"] = float(diff[mask].mean() / max(luminance[mask].mean(), 1e-3))
+    if len(settings.products) > 1:  # every product, each to its own image (issue 35's twins)
+        from pavonine.render.api import render_products
+
+        try:
+            every = render_products(stage_path, spp=1, resolution=(16, 12), progress=False)
+            result["products"] = [len(every), len(settings.products)]
+        except Exception as exc:  # recorded against the stage
+            result["products"] = [0, len(settings.products)]
+            result["products_error"] = f"{type(exc).__name__}: {exc}"[:300]
     screenshot = reference_screenshot(stage_path)
     if screenshot is not None and camera is None:
         result["screenshot"] = str(screenshot)
@@ -378,6 +389,9 @@ def checks(metrics: dict) -> dict[str, bool | None]:
             out["silhouette"] = metrics["silhouette_iou"] >= SILHOUETTE_IOU
     unsupported = [w for w in metrics["warnings"] if "not supported" in w]
     out["supported"] = not unsupported
+    if "products" in metrics:  # a stage with several RenderProducts: each one rendered
+        rendered, wanted = metrics["products"]
+        out["products"] = rendered == wanted
     return out
 
 
@@ -499,7 +513,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def print_table(rows: list[dict]) -> None:
     """One line per stage (checks: + pass, x fail, . not applicable), then pass rates."""
-    names = ["runs", "coverage", "lit", "texture", "silhouette", "supported"]
+    names = ["runs", "coverage", "lit", "texture", "silhouette", "supported", "products"]
     print(f"{'suite':10} {'stage':70} " + " ".join(f"{n[:5]:>5}" for n in names) + "  notes")
     for row in rows:
         marks = []
