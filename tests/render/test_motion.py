@@ -197,3 +197,15 @@ def test_an_open_shutter_on_a_still_stage_moves_nothing(tmp_path):
     sharp = render(sharp_path, spp=32)
     assert (result.rgb[ROW, :, 0] > 0.1).sum() == 12
     assert result.rgb.mean() == pytest.approx(sharp.rgb.mean(), rel=0.03)
+
+
+def test_frames_of_a_still_stage_reuse_the_scene(tmp_path):
+    """Nothing varies (no parameters traversed): a later frame moves nothing and renders as a
+    fresh render of that time, bit for bit."""
+    path = tmp_path / "still.usda"
+    motion_stage(path, None, samples={1.0: 0.0})
+    session = RenderSession(path, RenderOptions(spp=4, seed=1, time=0.0, progress=False))
+    assert session.plan.static and session.params is None
+    later = session.render(time=2.0)[0]
+    assert later.metadata["sync"] == "moved" and later.metadata["time"] == 2.0
+    assert np.array_equal(later.rgb, render(path, spp=4, seed=1, time=2.0).rgb)

@@ -214,6 +214,9 @@ class MotionPlan:
         started = clock.perf_counter()
         if self.time == time:
             return 0.0
+        if self.static or params is None:  # nothing varies: the scene is the same at any time
+            self.time = time
+            return clock.perf_counter() - started
         base_code = Usd.TimeCode(time if base is None else base)
         view = self.delegate.at_time(Usd.TimeCode(time), base_code)
         for prim, kind, keys in self.gprims:
