@@ -110,8 +110,8 @@ def test_render_tests_skip_with_the_reason_instead_of_failing(tmp_path):
     result = run_hidden(
         sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider",
         "--basetemp", str(tmp_path / "basetemp"), "--rootdir", str(ROOT),
-        str(tests / "test_demo.py::test_demo_paints_converts_and_renders"),
-        str(tests / "test_feather_bsdf.py"),
+        str(tests / "apps" / "test_demo.py::test_demo_paints_converts_and_renders"),
+        str(tests / "render" / "test_feather_bsdf.py"),
         cwd=tmp_path,
     )  # fmt: skip
     assert result.returncode == 0, result.stdout + result.stderr
