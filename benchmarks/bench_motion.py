@@ -4,9 +4,9 @@ Dask workers; per-frame time and sync, and the two ratios issue 35 asks for, in 
 Usage::
 
     python benchmarks/bench_motion.py [--resolution 512x384] [--spp 16] [--frames 1-6]
-        [--workers 2] [--slices 16] [--stage assets/scenes/peacock_rattle.usda] [-o out/motion]
+        [--workers 2] [--slices 16] [--stage assets/shots/peacock_rattle.usda] [-o out/motion]
 
-The stage is ``assets/scenes/peacock_rattle.usda`` when it exists (``pavonine assemble train``'s
+The stage is ``assets/shots/peacock_rattle.usda`` when it exists (``pavonine assemble train``'s
 rattle keys); otherwise a stand-in written here: ``assets/scenes/peacock_train.usda`` with every
 feather of its PointInstancer turned about its own axis by +6° and −6° on alternate frames
 (``orientations`` time-sampled at every frame; USD interpolates them in between), and the camera's

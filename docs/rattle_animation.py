@@ -1,7 +1,7 @@
 """Draw docs/images/peacock_rattle.png (an animated PNG) and peacock_rattle_diff.png from the
 frames of the rattle shot:
 
-    pavonine render assets/scenes/peacock_rattle.usda -o FOLDER/rattle.exr --png --frames 1-6 \
+    pavonine render assets/shots/peacock_rattle.usda -o FOLDER/rattle.exr --png --frames 1-6 \
         --workers 2 --spp 8
     .venv/bin/python docs/rattle_animation.py FOLDER
 
