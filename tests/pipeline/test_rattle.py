@@ -21,7 +21,7 @@ REPO = Path(__file__).parents[2]
 TRAIN = REPO / "assets" / "recipes" / "peacock_train.toml"
 RATTLE = REPO / "assets" / "recipes" / "peacock_rattle.toml"
 SHIPPED = REPO / "assets" / "assemblies" / "peacock_rattle" / "peacock_rattle.usda"
-SCENE = REPO / "assets" / "scenes" / "peacock_rattle.usda"
+SCENE = REPO / "assets" / "shots" / "peacock_rattle.usda"
 FEATHERS = REPO / "assets" / "feathers"
 
 
