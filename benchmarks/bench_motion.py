@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-RATTLE = ROOT / "assets" / "scenes" / "peacock_rattle.usda"
+RATTLE = ROOT / "assets" / "shots" / "peacock_rattle.usda"
 TRAIN = ROOT / "assets" / "scenes" / "peacock_train.usda"
 TURN_DEG = 6.0
 SHUTTER = (-0.25, 0.25)
