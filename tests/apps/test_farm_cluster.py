@@ -221,6 +221,9 @@ def test_a_worker_killed_mid_run_has_its_task_rescheduled(local_dask, reference,
             while victim is None and time.monotonic() < deadline:
                 busy = {a: keys for a, keys in client.processing().items() if keys}
                 names = {a: w["name"] for a, w in client.scheduler_info()["workers"].items()}
+                # The two snapshots are taken apart: a worker may be busy in one and not yet
+                # (or no longer) listed in the other; look again then.
+                busy = {a: keys for a, keys in busy.items() if a in names}
                 if busy:
                     victim_address = sorted(busy)[0]
                     victim, killed_tasks = names[victim_address], busy[victim_address]

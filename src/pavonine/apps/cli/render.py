@@ -317,7 +317,7 @@ def _show(record: dict[str, Any]) -> None:
     shards = f" in {record['shards']} shards" if record["shards"] > 1 else ""
     seconds = ""
     if record.get("seconds") is not None:
-        seconds = f", {record['seconds']:.2f} s"
+        seconds = f", {record['seconds']:.1f} s"
         if record.get("sync_seconds") is not None:
             seconds += f" (sync {record['sync_seconds']:.3f} s)"
     say(
