@@ -29,6 +29,7 @@ def _barbs(asset: Path = ASSET):
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(asset))
+    stage.SetEditTarget(stage.GetSessionLayer())  # not the shipped layer (tests/conftest.py)
     root = stage.GetDefaultPrim()
     root.GetVariantSets().GetVariantSet("geometry").SetVariantSelection("barbs")
     for prim in Usd.PrimRange(root):

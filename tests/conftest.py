@@ -181,6 +181,76 @@ def missing_system_tools() -> dict[str, str]:
     return missing
 
 
+# ------------------------------------------------------------------ the checkout stays as it is
+#: The repository (the checkout the tests run from).
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: Shipped files no test may change: an edit left in memory on a shipped layer (a variant chosen
+#: on the stage's root layer) reaches every later stage of the process that references it, and a
+#: later ``stage.Save()`` writes it into the checkout, where the wheel and subprocesses see it.
+SHIPPED = ("assets", "src")
+
+
+def _dirty_checkout_layers() -> list[str]:
+    """File-backed USD layers of this process, inside :data:`SHIPPED`, with unsaved edits."""
+    if "pxr" not in sys.modules:
+        return []
+    from pxr import Sdf
+
+    roots = tuple(os.path.join(REPO, room) + os.sep for room in SHIPPED)
+    return sorted(
+        layer.realPath
+        for layer in Sdf.Layer.GetLoadedLayers()
+        if layer.dirty and not layer.anonymous and layer.realPath.startswith(roots)
+    )
+
+
+@pytest.fixture(autouse=True)
+def _shipped_layers_stay_clean():
+    """No test leaves an edit in memory on a shipped layer (edit a copy, or the session layer)."""
+    yield
+    dirty = _dirty_checkout_layers()
+    if dirty:
+        from pxr import Sdf
+
+        for path in dirty:  # the next test starts from the files as shipped
+            Sdf.Layer.Find(path).Reload(force=True)
+        pytest.fail(f"a shipped layer was edited in memory: {', '.join(dirty)}", pytrace=False)
+
+
+def _checkout_digest() -> dict[str, str]:
+    """sha256 of every file under :data:`SHIPPED` but caches (``__pycache__``, ``*.egg-info``)."""
+    import hashlib
+
+    digest = {}
+    for room in SHIPPED:
+        for folder, dirs, files in os.walk(os.path.join(REPO, room)):
+            dirs[:] = [d for d in dirs if d != "__pycache__" and not d.endswith(".egg-info")]
+            for name in files:
+                path = os.path.join(folder, name)
+                with open(path, "rb") as handle:
+                    digest[path] = hashlib.sha256(handle.read()).hexdigest()
+    return digest
+
+
+def pytest_sessionstart(session):
+    """Take the checkout's digest once, on the controller (not on each xdist worker)."""
+    if not hasattr(session.config, "workerinput"):
+        session.config._checkout_digest = _checkout_digest()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Fail the run when a test changed, added or removed a shipped file."""
+    before = getattr(session.config, "_checkout_digest", None)
+    if before is None:
+        return
+    after = _checkout_digest()
+    changed = sorted(p for p in before.keys() | after.keys() if before.get(p) != after.get(p))
+    if changed:
+        shown = ", ".join(os.path.relpath(p, REPO) for p in changed[:10])
+        sys.stderr.write(f"\nerror: the tests changed shipped files: {shown}\n")
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
 def pytest_collection_modifyitems(config, items):
     """Tests marked ``render``, ``llvm``, ``mitsuba`` or ``pymeshlab`` skip, saying what to install,
     when the system library they need is missing."""

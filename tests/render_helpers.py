@@ -157,8 +157,12 @@ def halves(left, right, size=8, dtype=np.float32) -> np.ndarray:
 
 
 def render(stage, spp=16, resolution=RES, **kwargs) -> RenderResult:
-    """Save and render ``stage`` quietly (warnings are kept in the result)."""
-    stage.Save()
+    """Save ``stage``'s layers and render it quietly (warnings are kept in the result). Not
+    ``Usd.Stage.Save``: it writes every dirty layer the stage uses, a shipped one among them."""
+    shipped = str(Path(__file__).resolve().parents[1] / "assets")
+    for layer in stage.GetUsedLayers():
+        if layer.dirty and not layer.anonymous and not layer.realPath.startswith(shipped):
+            layer.Save()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StageWarning)
         return render_stage(

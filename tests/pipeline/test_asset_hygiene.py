@@ -61,6 +61,7 @@ def test_low_lod_is_the_proxy_and_the_render_lod_is_render(eye_asset):
     from pxr import UsdGeom
 
     stage = open_stage(eye_asset)
+    stage.SetEditTarget(stage.GetSessionLayer())  # the shared asset's files stay as converted
     geom = UsdGeom.Imageable(stage.GetPrimAtPath("/eye_feather/Geom"))
     proxy = UsdGeom.Imageable(stage.GetPrimAtPath("/eye_feather/Proxy"))
     assert geom.ComputePurpose() == UsdGeom.Tokens.render

@@ -210,6 +210,7 @@ def test_the_asset_switches_between_sheet_and_barbs(eye_asset):
     from pavonine.schemas.primvars import FEATHER_UV_PRIMVAR
 
     stage = Usd.Stage.Open(str(eye_asset))
+    stage.SetEditTarget(stage.GetSessionLayer())  # the shared asset's files stay as converted
     prim = stage.GetDefaultPrim()
     geom = f"/{prim.GetName()}/Geom"
     variants = prim.GetVariantSets().GetVariantSet("geometry")
@@ -250,6 +251,7 @@ def test_baked_barb_colours_follow_the_ocellus(eye_asset):
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(eye_asset))
+    stage.SetEditTarget(stage.GetSessionLayer())
     prim = stage.GetDefaultPrim()
     prim.GetVariantSets().GetVariantSet("geometry").SetVariantSelection("barbs")
     api = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(f"/{prim.GetName()}/Geom/Barbs"))

@@ -69,6 +69,7 @@ def open_lod(root: Path, lod: str):
     import pavonine  # noqa: F401  (registers the schema)
 
     stage = Usd.Stage.Open(str(root))
+    stage.SetEditTarget(stage.GetSessionLayer())  # the asset's files stay as converted
     stage.GetDefaultPrim().GetVariantSet("lod").SetVariantSelection(lod)
     return stage
 
