@@ -13,6 +13,8 @@ UNITS_PER_PIXEL = 1.0 / 32.0
 QUAD = (0.375, 0.5)  # width and height: 12 × 16 pixels
 SPEED = 1.0  # scene units per time code: 32 pixels per frame
 EMISSION = 1.0
+#: Ways of moving the quad as a PointInstancer's instance (a black quad before a glowing backdrop).
+INSTANCED = ("instancer", "prototype")
 
 
 def motion_stage(
@@ -28,7 +30,8 @@ def motion_stage(
     parent's ``xformOp`` (``xform``), its ``points`` samples (``points``), the camera moving the
     other way (``camera``), one ``points`` sample at the frame with ``velocities``
     (``velocities``), or as the one instance of a PointInstancer with one ``positions`` sample
-    and ``velocities`` (``instancer``); ``samples`` replace the linear motion (xform only);
+    and ``velocities`` (``instancer``), or as the prototype of a still instance, its ``points``
+    time-sampled (``prototype``); ``samples`` replace the linear motion (xform only);
     ``settings``: RenderSettings booleans (``disableMotionBlur``, ``instantaneousShutter``);
     ``samples``: time → x of the quad's centre instead of the linear motion."""
     stage = Usd.Stage.CreateNew(str(path))
@@ -52,7 +55,8 @@ def motion_stage(
     w, h = QUAD[0] / 2, QUAD[1] / 2
     corners = np.array([(-w, -h, 0), (w, -h, 0), (w, h, 0), (-w, h, 0)], dtype=np.float64)
     UsdGeom.Xform.Define(stage, "/World")
-    quad_path = "/World/PI/Protos/Quad" if how == "instancer" else "/World/Quad"
+    instanced = how in INSTANCED
+    quad_path = "/World/PI/Protos/Quad" if instanced else "/World/Quad"
     mesh = UsdGeom.Mesh.Define(stage, quad_path)
     mesh.CreateFaceVertexCountsAttr([4])
     mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
@@ -64,7 +68,7 @@ def motion_stage(
         op = UsdGeom.Xformable(stage.GetPrimAtPath("/World")).AddTranslateOp()
         for t, x in keys.items():
             op.Set(Gf.Vec3d(x, 0, 0), Usd.TimeCode(t))
-    elif how == "points":
+    elif how in ("points", "prototype"):
         points = mesh.CreatePointsAttr()
         for t, x in keys.items():
             points.Set([Gf.Vec3f(p[0] + x, p[1], p[2]) for p in corners], Usd.TimeCode(t))
@@ -73,14 +77,17 @@ def motion_stage(
         mesh.CreateVelocitiesAttr().Set([Gf.Vec3f(per_second, 0, 0)] * 4, Usd.TimeCode(1))
     else:
         mesh.CreatePointsAttr([Gf.Vec3f(*p) for p in corners])
-    if how == "instancer":
+    if instanced:
         instancer = UsdGeom.PointInstancer.Define(stage, "/World/PI")
         instancer.CreatePrototypesRel().SetTargets([quad_path])
         instancer.CreateProtoIndicesAttr([0])
-        instancer.CreatePositionsAttr().Set([Gf.Vec3f(0, 0, 0)], Usd.TimeCode(1))
-        instancer.CreateVelocitiesAttr().Set([Gf.Vec3f(per_second, 0, 0)], Usd.TimeCode(1))
+        if how == "prototype":
+            instancer.CreatePositionsAttr([Gf.Vec3f(0, 0, 0)])
+        else:
+            instancer.CreatePositionsAttr().Set([Gf.Vec3f(0, 0, 0)], Usd.TimeCode(1))
+            instancer.CreateVelocitiesAttr().Set([Gf.Vec3f(per_second, 0, 0)], Usd.TimeCode(1))
     glow = _material(stage, "/Looks/Glow", EMISSION)
-    if how == "instancer":  # instances cannot emit: a black quad before a glowing backdrop
+    if instanced:  # instances cannot emit: a black quad before a glowing backdrop
         backdrop = UsdGeom.Mesh.Define(stage, "/Backdrop")
         backdrop.CreatePointsAttr([(-4, -4, -1), (4, -4, -1), (4, 4, -1), (-4, 4, -1)])
         backdrop.CreateFaceVertexCountsAttr([4])
@@ -138,6 +145,6 @@ def _material(stage: Usd.Stage, path: str, emission: float) -> UsdShade.Material
 
 def coverage(rgb: np.ndarray, how: str, level: float) -> np.ndarray:
     """The quad's coverage of each column of the middle rows, from the image (the light it emits,
-    or for ``instancer`` the backdrop's light it blocks), ``level`` the unblocked radiance."""
+    or for an instance the backdrop's light it blocks), ``level`` the unblocked radiance."""
     row = rgb[SIZE[1] // 2 - 4 : SIZE[1] // 2 + 4, :, 0].mean(axis=0) / level
-    return 1.0 - row if how == "instancer" else row
+    return 1.0 - row if how in INSTANCED else row

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from motion_scene import SIZE, coverage, crossings, expected_streak, motion_stage
+from motion_scene import INSTANCED, SIZE, coverage, crossings, expected_streak, motion_stage
 
 from pavonine.apps.cli import cli
 from pavonine.render import motion
@@ -34,17 +34,20 @@ def plateau(folder: Path, how: str = "xform") -> float:
     time (the quad's, or the backdrop's beside it for ``instancer``)."""
     motion_stage(folder / "sharp.usda", None, how)
     sharp = render(folder / "sharp.usda", spp=64)
-    column = 4 if how == "instancer" else SIZE[0] // 2
+    column = 4 if how in INSTANCED else SIZE[0] // 2
     return float(sharp.rgb[ROW - 4 : ROW + 4, column - 4 : column + 4, 0].mean())
 
 
-@pytest.mark.parametrize("how", ["xform", "points", "camera", "velocities", "instancer"])
+@pytest.mark.parametrize(
+    "how", ["xform", "points", "camera", "velocities", "instancer", "prototype"]
+)
 def test_streak_width_and_profile_match_the_motion(tmp_path, how):
     """The quad moves 16 px while the shutter is open: its streak (a trapezoid, 28 px wide, 4 px
     of plateau at 12/16 of the quad's radiance) matches the one computed from the motion alone,
     its edges and its 25/50/60 % crossings within 2 px, its plateau within 6 %, whether the quad
-    moves by a transform, by points, by velocities (of points or of a PointInstancer's instance)
-    or the camera moves."""
+    moves by a transform, by points, by velocities (of points or of a PointInstancer's instance),
+    by the points of a PointInstancer's prototype (its shape group moved in place), or the
+    camera moves."""
     path = tmp_path / "moving.usda"
     motion_stage(path, SHUTTER, how)
     level = plateau(tmp_path, how)
@@ -209,3 +212,24 @@ def test_frames_of_a_still_stage_reuse_the_scene(tmp_path):
     later = session.render(time=2.0)[0]
     assert later.metadata["sync"] == "moved" and later.metadata["time"] == 2.0
     assert np.array_equal(later.rgb, render(path, spp=4, seed=1, time=2.0).rgb)
+
+
+def test_frames_move_a_prototype_in_place_and_equal_a_fresh_render(tmp_path):
+    """A PointInstancer prototype whose points vary is moved in place between frames (its shape
+    group's meshes, not a full sync), giving the single-time render of each frame bit for bit."""
+    path = tmp_path / "prototype.usda"
+    motion_stage(path, None, "prototype")
+    session = RenderSession(path, RenderOptions(spp=8, seed=2, time=0.0, progress=False))
+    [(root, group, moving)] = session.plan.prototypes
+    assert root.GetPath().pathString == "/World/PI/Protos/Quad"
+    assert [(prim.GetPath().pathString, indices) for prim, indices in moving] == [
+        ("/World/PI/Protos/Quad", [0])
+    ]
+    assert group.startswith("shapegroup_") and session.plan.complete
+    first = session.render()[0]
+    for frame in (1.0, 2.0):
+        moved = session.render(time=frame)[0]
+        assert moved.metadata["sync"] == "moved"
+        fresh = render(path, spp=8, seed=2, time=frame)
+        assert np.array_equal(moved.rgb, fresh.rgb), frame
+    assert not np.array_equal(first.rgb, moved.rgb)

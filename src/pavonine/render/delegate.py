@@ -130,6 +130,8 @@ class StageDelegate:
         self.synced_prims: list[tuple[str, str]] = []
         self.limits = limits
         self.base_time: Usd.TimeCode | None = None  # see at_time
+        #: per translated subtree's root path, the prim path of each of its meshes, in order
+        self.subtree_owners: dict[str, list[str]] = {}
 
     def at_time(self, time: Usd.TimeCode, base: Usd.TimeCode | None = None) -> StageDelegate:
         """A delegate of the same stage at ``time`` that shares this one's materials and BSDFs
@@ -153,6 +155,18 @@ class StageDelegate:
         self._sync_prim(prim, kind)
         made, self.scene.shapes = self.scene.shapes, before
         return made
+
+    def prototype_prim_shapes(self, root: Usd.Prim, prim: Usd.Prim) -> list:
+        """The meshes of ``prim``, a gprim or curves inside the prototype ``root``, at this
+        delegate's time and in prototype space, as the sync made them (:mod:`.motion` moves them
+        in place); none when its transform is unusable at this time (warned)."""
+        relative = np.eye(4) if prim == root else self.xforms.relative(prim, root)
+        matrix = self._usable(prim, relative)
+        if matrix is None:
+            return []
+        kind = kinds.prim_kind(prim)
+        translate = self._curves if kind == kinds.CURVES else self._gprim_in_prototype
+        return translate(prim, matrix)[0]
 
     def sync(self) -> SyncedScene:
         """Walk the stage and translate every renderable prim (progress on stderr if asked)."""
@@ -444,6 +458,8 @@ class StageDelegate:
         """Meshes under ``root`` (instance proxies included) relative to ``relative_to``."""
         meshes: list = []
         boxes: list = []
+        owners: list[str] = self.subtree_owners.setdefault(str(root.GetPath()), [])
+        owners.clear()
         it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies()))
         for prim in it:
             if not self._visible(prim):
@@ -461,6 +477,7 @@ class StageDelegate:
                 translate = self._curves if kind == kinds.CURVES else self._gprim_in_prototype
                 prim_shapes, prim_boxes = translate(prim, matrix)
                 meshes.extend(prim_shapes)
+                owners.extend(str(prim.GetPath()) for _ in prim_shapes)
                 boxes.extend(prim_boxes)
             elif kind == kinds.INSTANCER:
                 self.diag.warn(

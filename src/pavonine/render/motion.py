@@ -26,9 +26,14 @@ normals, ``widths`` of tessellated curves, subdivision and skinning move with th
 the frame as base time). The same plan moves a scene from one frame to the next
 (:class:`pavonine.render.api.RenderSession`).
 
+A ``PointInstancer`` prototype whose prims vary (points, skinning, blend shapes) is translated
+again at the slice's time and its shape group's meshes moved in place: Mitsuba rebuilds the
+group's BVH once, and every instance of it follows.
+
 What does not move (warned once, naming the prim): lights (rendered as at the frame's time),
-Mitsuba curve shapes (tubes without a varying primvar), displaced meshes, meshes inside instance
-prototypes, and a prim whose topology changes within the interval. A slice at which a prim's
+Mitsuba curve shapes (tubes without a varying primvar), displaced meshes, meshes inside the
+prototypes of native instances (instanceable prims), and a prim whose topology changes within the
+interval. A slice at which a prim's
 transform or points are NaN keeps the prim where it was at the frame's time (the translator warns,
 naming the attribute).
 """
@@ -174,10 +179,17 @@ class Variation:
     def prim(self, prim: Usd.Prim) -> bool:
         return self.transform(prim) or self.attributes(prim)
 
-    def subtree(self, root: Usd.Prim) -> bool:
-        """Anything below ``root`` (instance proxies included) might vary."""
+    def subtree(self, root: Usd.Prim, skinned: Any = None, with_root: bool = False) -> bool:
+        """Anything below ``root`` (instance proxies included; ``root`` too ``with_root``) might
+        vary, or is deformed by a skeleton (``skinned``: the delegate's
+        :class:`pavonine.render.skel.Skinning`)."""
         for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies()):
-            if prim != root and self.attributes(prim):
+            if prim == root and not with_root:
+                continue
+            if self.attributes(prim):
+                return True
+            path = str(prim.GetPath())
+            if skinned is not None and (path in skinned.points or path in skinned.transforms):
                 return True
         return False
 
@@ -189,6 +201,11 @@ class MotionPlan:
     delegate: Any  # the StageDelegate that synced the scene (its time is the frame's)
     gprims: list[tuple[Usd.Prim, str, dict[str, str]]] = field(default_factory=list)
     instancers: list[tuple[Usd.Prim, list[tuple[str, int]]]] = field(default_factory=list)
+    #: a PointInstancer prototype whose prims vary: (its root, its shape group's id, and per
+    #: varying prim inside it, the prim and the indices of its meshes in the group)
+    prototypes: list[tuple[Usd.Prim, str, list[tuple[Usd.Prim, list[int]]]]] = field(
+        default_factory=list
+    )
     natives: list[tuple[Usd.Prim, str]] = field(default_factory=list)
     cameras: list[tuple[Usd.Prim, str, Any]] = field(default_factory=list)  # prim, sensor id, job
     #: prims that vary but are not moved (what :attr:`complete` is false for)
@@ -198,7 +215,9 @@ class MotionPlan:
 
     @property
     def static(self) -> bool:
-        return not (self.gprims or self.instancers or self.natives or self.cameras)
+        return not (
+            self.gprims or self.instancers or self.prototypes or self.natives or self.cameras
+        )
 
     @property
     def complete(self) -> bool:
@@ -223,6 +242,8 @@ class MotionPlan:
             self._move_gprim(params, view, prim, kind, keys, diag)
         for prim, instances in self.instancers:
             self._move_instancer(params, view, prim, instances, base_code)
+        for root, group, moving in self.prototypes:
+            self._move_prototype(params, view, root, group, moving, diag)
         for prim, key in self.natives:
             world = view.xforms.world(prim)
             if np.all(np.isfinite(world)):
@@ -237,27 +258,29 @@ class MotionPlan:
         return clock.perf_counter() - started
 
     def _move_gprim(self, params, view, prim, kind, keys, diag) -> None:
-        import mitsuba as mi
-
         shapes = view.translate_prim(prim, kind)
         for name, key in keys.items():
             new = shapes.get(name)
             if new is None:  # NaN at this time (warned by the translator): stays put
                 continue
-            if not isinstance(new, mi.Mesh):
+            _move_mesh(params, key, new, prim, diag)
+
+    def _move_prototype(self, params, view, root, group, moving, diag) -> None:
+        """Translate a PointInstancer prototype's varying prims again at the view's time
+        (skinning, blend shapes and points as at any time) and move their meshes in the shape
+        group in place; Mitsuba rebuilds the group's BVH, and every instance follows."""
+        for prim, indices in moving:
+            shapes = view.prototype_prim_shapes(root, prim)
+            if len(shapes) != len(indices):
+                if shapes:  # none: unusable at this time (warned by the translator), stays put
+                    diag.warn(
+                        str(prim.GetPath()),
+                        "topology changes within the time rendered; not moved (as at the first "
+                        "time)",
+                    )
                 continue
-            name_in_scene = f"{key}.vertex_positions"
-            current = params[name_in_scene] if name_in_scene in params else None
-            positions = mi.traverse(new)["vertex_positions"]
-            if current is None or dr_width(current) != dr_width(positions):
-                diag.warn(
-                    str(prim.GetPath()),
-                    "topology changes within the time rendered; not moved (as at the first time)",
-                )
-                continue
-            params[f"{key}.vertex_positions"] = positions
-            if f"{key}.vertex_normals" in params and new.has_vertex_normals():
-                params[f"{key}.vertex_normals"] = mi.traverse(new)["vertex_normals"]
+            for index, new in zip(indices, shapes, strict=True):
+                _move_mesh(params, f"{group}.shape_{index}", new, prim, diag)
 
     def _move_instancer(self, params, view, prim, instances, base) -> None:
         instancer = UsdGeom.PointInstancer(prim)
@@ -273,6 +296,28 @@ class MotionPlan:
         for key, index in instances:
             if index < len(world) and np.all(np.isfinite(world[index])):
                 params[f"{key}.to_world"] = _transform(world[index].T)
+
+
+def _move_mesh(params, key: str, new, prim: Usd.Prim, diag: Diagnostics) -> None:
+    """Set the scene mesh ``key``'s vertices (and normals) to those of the mesh ``new``; a mesh of
+    another vertex count stays as it is (warned, naming ``prim``)."""
+    import mitsuba as mi
+
+    if not isinstance(new, mi.Mesh):
+        return
+    name_in_scene = f"{key}.vertex_positions"
+    current = params[name_in_scene] if name_in_scene in params else None
+    moved = mi.traverse(new)
+    positions = moved["vertex_positions"]
+    if current is None or dr_width(current) != dr_width(positions):
+        diag.warn(
+            str(prim.GetPath()),
+            "topology changes within the time rendered; not moved (as at the first time)",
+        )
+        return
+    params[name_in_scene] = positions
+    if f"{key}.vertex_normals" in params and new.has_vertex_normals():
+        params[f"{key}.vertex_normals"] = moved["vertex_normals"]
 
 
 def dr_width(value) -> int:
@@ -330,9 +375,17 @@ def plan_motion(
                 plan.gprims.append((prim, kind, keys))
         elif kind == kinds.INSTANCER:
             instancer = UsdGeom.PointInstancer(prim)
-            targets = instancer.GetPrototypesRel().GetForwardedTargets()
-            if any(variation.subtree(prim.GetStage().GetPrimAtPath(t)) for t in targets):
-                fixed(prim, "time-varying prims inside its prototypes")
+            for target in instancer.GetPrototypesRel().GetForwardedTargets():
+                root = prim.GetStage().GetPrimAtPath(target)
+                if not root or not variation.subtree(root, delegate.skinning, with_root=True):
+                    continue
+                group = _prototype_group(delegate, f"{path}:{target}")
+                if group is None:
+                    fixed(root, "time-varying prims inside a prototype that are not meshes")
+                elif group:
+                    owners = delegate.subtree_owners.get(target.pathString, [])
+                    moving = _varying_owners(root, owners, variation, delegate.skinning)
+                    plan.prototypes.append((root, group, moving))
             if instancer.GetProtoIndicesAttr().ValueMightBeTimeVarying():
                 fixed(prim, "protoIndices vary (instances appear or vanish)")
             elif variation.prim(prim):
@@ -355,6 +408,44 @@ def plan_motion(
             fixed(prim, "a time-varying lens (the lens of the first time is used)")
     plan.time = frame_time(delegate.time)
     return plan
+
+
+def _prototype_group(delegate, key: str) -> str | None:
+    """The shape group of the PointInstancer prototype ``key`` (``instancer:target``) when every
+    shape in it is a mesh (``None`` otherwise: Mitsuba curves cannot be moved in place; ``""``
+    for a prototype that made no shapes)."""
+    import mitsuba as mi
+
+    proto = delegate.table.prototypes.get(key)
+    if proto is None or not proto.group_id:
+        return ""
+    shapes = [v for k, v in delegate.table.groups[proto.group_id].items() if k != "type"]
+    if not all(isinstance(shape, mi.Mesh) for shape in shapes):
+        return None
+    return proto.group_id
+
+
+def _varying_owners(
+    root: Usd.Prim, owners: list[str], variation: Variation, skinned: Any
+) -> list[tuple[Usd.Prim, list[int]]]:
+    """The prims of a prototype whose meshes (indices into ``owners``, the group's shapes in
+    order) move: their own attributes, or an ancestor's up to ``root``, might vary, or a
+    skeleton deforms them."""
+    stage = root.GetStage()
+    moving: dict[str, list[int]] = {}
+    for index, path in enumerate(owners):
+        if path in moving:
+            moving[path].append(index)
+            continue
+        prim = stage.GetPrimAtPath(path)
+        varies = path in skinned.points or path in skinned.transforms
+        walk = prim
+        while not varies and walk and walk != root.GetParent():
+            varies = variation.attributes(walk)
+            walk = walk.GetParent()
+        if varies:
+            moving[path] = [index]
+    return [(stage.GetPrimAtPath(path), indices) for path, indices in moving.items()]
 
 
 def frame_time(time: Usd.TimeCode) -> float | None:
