@@ -9,7 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from motion_scene import INSTANCED, SIZE, coverage, crossings, expected_streak, motion_stage
+from motion_scene import (
+    INSTANCED,
+    SIZE,
+    coverage,
+    crossings,
+    expected_streak,
+    motion_stage,
+    skinned_prototype_stage,
+)
 
 from pavonine.apps.cli import cli
 from pavonine.render import motion
@@ -222,8 +230,8 @@ def test_frames_move_a_prototype_in_place_and_equal_a_fresh_render(tmp_path):
     session = RenderSession(path, RenderOptions(spp=8, seed=2, time=0.0, progress=False))
     [(root, group, moving)] = session.plan.prototypes
     assert root.GetPath().pathString == "/World/PI/Protos/Quad"
-    assert [(prim.GetPath().pathString, indices) for prim, indices in moving] == [
-        ("/World/PI/Protos/Quad", [0])
+    assert [(prim.GetPath().pathString, indices, fast) for prim, indices, fast in moving] == [
+        ("/World/PI/Protos/Quad", [0], None)  # points samples, no skeleton: translated again
     ]
     assert group.startswith("shapegroup_") and session.plan.complete
     first = session.render()[0]
@@ -233,3 +241,42 @@ def test_frames_move_a_prototype_in_place_and_equal_a_fresh_render(tmp_path):
         fresh = render(path, spp=8, seed=2, time=frame)
         assert np.array_equal(moved.rgb, fresh.rgb), frame
     assert not np.array_equal(first.rgb, moved.rgb)
+
+
+def test_a_skinned_prototype_moves_by_its_points_and_equals_a_fresh_render(tmp_path):
+    """A skeleton inside a PointInstancer's prototype: between frames its bar moves by its
+    skinned points alone (render/deform.py, checked against the translation when the plan is
+    made), and each frame is the single-time render of its time, bit for bit."""
+    import mitsuba as mi
+    from pxr import Usd
+
+    path = skinned_prototype_stage(tmp_path / "rig.usda")
+    session = RenderSession(path, RenderOptions(spp=4, seed=3, time=0.0, progress=False))
+    [(root, _, [(prim, indices, fast)])] = session.plan.prototypes
+    assert prim.GetName() == "Bar" and indices == [0] and fast is not None
+    for time in (5.0, 10.0):  # the arrays the translation makes, positions and normals
+        view = session.delegate.at_time(Usd.TimeCode(time))
+        [(positions, normals)] = fast.arrays(view.skinning.points[str(prim.GetPath())])
+        [translated] = view.prototype_prim_shapes(root, prim)
+        params = mi.traverse(translated)
+        assert np.array_equal(np.asarray(params["vertex_positions"]), positions.ravel())
+        assert np.array_equal(np.asarray(params["vertex_normals"]), normals.ravel())
+    first = session.render()[0]
+    for frame in (5.0, 10.0):
+        moved = session.render(time=frame)[0]
+        assert moved.metadata["sync"] == "moved" and moved.warnings == []
+        fresh = render(path, spp=4, seed=3, time=frame)
+        assert np.array_equal(moved.rgb, fresh.rgb), frame
+    assert not np.array_equal(first.rgb, moved.rgb)  # the bar bent
+
+
+def test_the_rattle_shot_moves_every_skinned_prim_by_its_points():
+    """The shipped rattle shot: its 16 prototypes' Vane and Rachis are skinned, and every one
+    follows its points (no prim is translated again from USD at a frame's move)."""
+    shot = Path(__file__).parents[2] / "assets" / "shots" / "peacock_rattle.usda"
+    options = RenderOptions(resolution=(8, 6), spp=1, time=1.0, progress=False)
+    plan = RenderSession(shot, options).plan
+    moving = [entry for _, _, entries in plan.prototypes for entry in entries]
+    assert plan.complete and len(plan.prototypes) == 16
+    assert sorted({prim.GetName() for prim, _, _ in moving}) == ["Rachis", "Vane"]
+    assert all(fast is not None for _, _, fast in moving)

@@ -132,6 +132,9 @@ class StageDelegate:
         self.base_time: Usd.TimeCode | None = None  # see at_time
         #: per translated subtree's root path, the prim path of each of its meshes, in order
         self.subtree_owners: dict[str, list[str]] = {}
+        #: when a dict: per gprim path, (surface, triangle mesh, matrix) of each mesh translated
+        #: (:mod:`.deform` learns from them how to move a skinned mesh by its points alone)
+        self.recorded: dict[str, list] | None = None
 
     def at_time(self, time: Usd.TimeCode, base: Usd.TimeCode | None = None) -> StageDelegate:
         """A delegate of the same stage at ``time`` that shares this one's materials and BSDFs
@@ -335,6 +338,10 @@ class StageDelegate:
                     f"±{MAX_COORDINATE:g} (points × xformOps); skipped",
                 )
                 continue
+            if self.recorded is not None:
+                self.recorded.setdefault(str(prim.GetPath()), []).append(
+                    (surface, triangles, matrix_usd)
+                )
             binding = spec.binding(prim, self.time, triangles.attributes)
             bsdf = self._bsdf(spec, surface.double_sided, binding)
             displaced = self._displaced_bsdf(spec, surface.double_sided, binding)

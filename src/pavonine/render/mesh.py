@@ -104,6 +104,8 @@ class TriangleMesh:
     normals: np.ndarray | None = None
     texcoords: np.ndarray | None = None
     attributes: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the surface point each vertex is (an index into the translated surface's points)
+    point_of_vertex: np.ndarray | None = None
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.positions.min(axis=0), self.positions.max(axis=0)
@@ -262,9 +264,13 @@ def smooth_normals(topology: Topology) -> Primvar:
     corner_points = topology.face_vertex_indices[topology.triangles]
     a, b, c = (p[corner_points[:, i]] for i in range(3))
     face_normals = np.cross(b - a, c - a)
-    normals = np.zeros_like(p)
-    for i in range(3):
-        np.add.at(normals, corner_points[:, i], face_normals)
+    # Each point sums its triangles' normals in the order of corners 0, 1, 2 (as three np.add.at
+    # would, bit for bit): one bincount per axis over the corners in that order, ~10x faster.
+    corners = corner_points.T.ravel()
+    weights = np.tile(face_normals, (3, 1))
+    normals = np.stack(
+        [np.bincount(corners, weights[:, k], minlength=len(p)) for k in range(3)], axis=1
+    ).astype(p.dtype, copy=False)
     return Primvar(normals, "vertex", "Normal")
 
 
@@ -357,6 +363,7 @@ def build_triangle_mesh(
     if flips_handedness(matrix_usd):
         faces = faces[:, [0, 2, 1]]
     out = TriangleMesh(name, positions.astype(np.float32), faces.astype(np.uint32))
+    out.point_of_vertex = topology.face_vertex_indices[corner_of_vertex]
     corner_face = topology.corner_face
 
     def corner_values(primvar: Primvar, label: str) -> np.ndarray | None:

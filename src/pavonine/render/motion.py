@@ -48,6 +48,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from pavonine.base.errors import InputError
+from pavonine.render import deform
 from pavonine.render import prim_kinds as kinds
 from pavonine.render.diagnostics import Diagnostics
 
@@ -202,8 +203,9 @@ class MotionPlan:
     gprims: list[tuple[Usd.Prim, str, dict[str, str]]] = field(default_factory=list)
     instancers: list[tuple[Usd.Prim, list[tuple[str, int]]]] = field(default_factory=list)
     #: a PointInstancer prototype whose prims vary: (its root, its shape group's id, and per
-    #: varying prim inside it, the prim and the indices of its meshes in the group)
-    prototypes: list[tuple[Usd.Prim, str, list[tuple[Usd.Prim, list[int]]]]] = field(
+    #: varying prim inside it, the prim, the indices of its meshes in the group and, when a
+    #: skeleton alone deforms it, how its meshes follow its points: :mod:`.deform`)
+    prototypes: list[tuple[Usd.Prim, str, list[tuple[Usd.Prim, list[int], Any]]]] = field(
         default_factory=list
     )
     natives: list[tuple[Usd.Prim, str]] = field(default_factory=list)
@@ -269,7 +271,9 @@ class MotionPlan:
         """Translate a PointInstancer prototype's varying prims again at the view's time
         (skinning, blend shapes and points as at any time) and move their meshes in the shape
         group in place; Mitsuba rebuilds the group's BVH, and every instance follows."""
-        for prim, indices in moving:
+        for prim, indices, fast in moving:
+            if fast is not None and _move_points(params, view, prim, group, indices, fast):
+                continue
             shapes = view.prototype_prim_shapes(root, prim)
             if len(shapes) != len(indices):
                 if shapes:  # none: unusable at this time (warned by the translator), stays put
@@ -296,6 +300,28 @@ class MotionPlan:
         for key, index in instances:
             if index < len(world) and np.all(np.isfinite(world[index])):
                 params[f"{key}.to_world"] = _transform(world[index].T)
+
+
+def _move_points(params, view, prim: Usd.Prim, group: str, indices: list[int], fast) -> bool:
+    """Move a skinned prim's meshes in the shape group ``group`` by its points alone
+    (:class:`pavonine.render.deform.PointsMove`); false when it cannot (then it is translated)."""
+    import mitsuba as mi
+
+    points = view.skinning.points.get(str(prim.GetPath()))
+    arrays = None if points is None else fast.arrays(points)
+    if arrays is None or len(arrays) != len(indices):
+        return False
+    keys = [f"{group}.shape_{index}" for index in indices]
+    for key, (positions, _) in zip(keys, arrays, strict=True):
+        if f"{key}.vertex_positions" not in params:
+            return False
+        if dr_width(params[f"{key}.vertex_positions"]) != positions.size:
+            return False
+    for key, (positions, normals) in zip(keys, arrays, strict=True):
+        params[f"{key}.vertex_positions"] = mi.Float(positions.ravel())
+        if normals is not None and f"{key}.vertex_normals" in params:
+            params[f"{key}.vertex_normals"] = mi.Float(normals.ravel())
+    return True
 
 
 def _move_mesh(params, key: str, new, prim: Usd.Prim, diag: Diagnostics) -> None:
@@ -349,6 +375,7 @@ def plan_motion(
 
     plan = MotionPlan(delegate)
     variation = Variation()
+    learner = None  # a recording view, made once a skinned prototype prim is met
 
     def fixed(prim: Usd.Prim, why: str) -> None:
         plan.fixed.append(str(prim.GetPath()))
@@ -384,7 +411,14 @@ def plan_motion(
                     fixed(root, "time-varying prims inside a prototype that are not meshes")
                 elif group:
                     owners = delegate.subtree_owners.get(target.pathString, [])
-                    moving = _varying_owners(root, owners, variation, delegate.skinning)
+                    moving = []
+                    for p, indices, only_skinned in _varying_owners(
+                        root, owners, variation, delegate.skinning
+                    ):
+                        if only_skinned and learner is None:
+                            learner = deform.learner(delegate)
+                        fast = deform.learn(learner, root, p) if only_skinned else None
+                        moving.append((p, indices, fast))
                     plan.prototypes.append((root, group, moving))
             if instancer.GetProtoIndicesAttr().ValueMightBeTimeVarying():
                 fixed(prim, "protoIndices vary (instances appear or vanish)")
@@ -427,25 +461,26 @@ def _prototype_group(delegate, key: str) -> str | None:
 
 def _varying_owners(
     root: Usd.Prim, owners: list[str], variation: Variation, skinned: Any
-) -> list[tuple[Usd.Prim, list[int]]]:
+) -> list[tuple[Usd.Prim, list[int], bool]]:
     """The prims of a prototype whose meshes (indices into ``owners``, the group's shapes in
     order) move: their own attributes, or an ancestor's up to ``root``, might vary, or a
-    skeleton deforms them."""
+    skeleton deforms them; and whether the skeleton is all that moves them."""
     stage = root.GetStage()
-    moving: dict[str, list[int]] = {}
+    moving: dict[str, tuple[list[int], bool]] = {}
     for index, path in enumerate(owners):
         if path in moving:
-            moving[path].append(index)
+            moving[path][0].append(index)
             continue
         prim = stage.GetPrimAtPath(path)
-        varies = path in skinned.points or path in skinned.transforms
+        by_skeleton = path in skinned.points
+        by_attributes = False
         walk = prim
-        while not varies and walk and walk != root.GetParent():
-            varies = variation.attributes(walk)
+        while not by_attributes and walk and walk != root.GetParent():
+            by_attributes = variation.attributes(walk)
             walk = walk.GetParent()
-        if varies:
-            moving[path] = [index]
-    return [(stage.GetPrimAtPath(path), indices) for path, indices in moving.items()]
+        if by_skeleton or by_attributes or path in skinned.transforms:
+            moving[path] = ([index], by_skeleton and not by_attributes)
+    return [(stage.GetPrimAtPath(p), idx, only) for p, (idx, only) in moving.items()]
 
 
 def frame_time(time: Usd.TimeCode) -> float | None:
