@@ -235,3 +235,45 @@ def test_a_byte_order_mark_is_read_past(tmp_path):
     path.write_bytes(b"\xef\xbb\xbf" + MINIMAL.encode())
     plain = parse_recipe(_write(tmp_path, MINIMAL))
     assert dataclasses.replace(parse_recipe(path), path=plain.path) == plain
+
+
+def test_form_keys_reach_the_options(tmp_path):
+    from pavonine.pipeline.convert.barb_form import FormOptions
+
+    text = MINIMAL + (
+        "[geometry.form]\nenabled = false\ncamber = 0.1\nbow = 0\nbow_out = 0.05\n"
+        "droop_deg = 30\nroot_jitter = 0.2\nlength_jitter = 0.25\nseed = 7\n"
+    )
+    form = parse_recipe(_write(tmp_path, text)).geometry.form
+    assert form == FormOptions(False, 0.1, 0.0, 0.05, 30.0, 0.2, 0.25, 7)
+    assert parse_recipe(_write(tmp_path, MINIMAL)).geometry.form == FormOptions()
+
+
+@pytest.mark.parametrize(
+    ("extra", "key", "words"),
+    [
+        ("camber = 5", "geometry.form.camber", "must lie in [0, 0.2], got 5"),
+        ("camber = nan", "geometry.form.camber", "finite"),
+        ('camber = "0.1"', "geometry.form.camber", "expected a number"),
+        ("bow = -0.1", "geometry.form.bow", "must not be negative"),
+        ("bow_out = 0.5", "geometry.form.bow_out", "must lie in [0, 0.2]"),
+        ("droop_deg = 90", "geometry.form.droop_deg", "must lie in [0, 80]"),
+        ("droop_deg = inf", "geometry.form.droop_deg", "finite"),
+        ("root_jitter = 1", "geometry.form.root_jitter", "must lie in [0, 0.3]"),
+        ("length_jitter = true", "geometry.form.length_jitter", "expected a number"),
+        ("length_jitter = 1", "geometry.form.length_jitter", "must lie in [0, 0.9]"),
+        ("seed = -1", "geometry.form.seed", "must not be negative"),
+        ("seed = 1.5", "geometry.form.seed", "integer"),
+        ("seed = 4294967296", "geometry.form.seed", "[0, 2147483647]"),
+        ('enabled = "yes"', "geometry.form.enabled", "true or false"),
+        ("clumps = 3", "geometry.form.clumps", "unknown key"),
+    ],
+)
+def test_bad_form_keys_name_the_key(tmp_path, extra, key, words):
+    error = _error(tmp_path, MINIMAL + "[geometry.form]\n" + extra + "\n")
+    assert f"r.toml: {key}" in str(error) and words in str(error)
+
+
+def test_form_must_be_a_table(tmp_path):
+    error = _error(tmp_path, MINIMAL + "[geometry]\nform = 3\n")
+    assert "geometry.form: expected a table" in str(error)

@@ -44,6 +44,7 @@ from scipy.spatial import cKDTree
 from pavonine.base.map_files import sample_bilinear, sample_nearest
 from pavonine.base.map_filters import gaussian_blur
 from pavonine.materials.ocellus import smooth_class_field
+from pavonine.pipeline.convert.barb_form import FormOptions, apply_form
 from pavonine.pipeline.convert.barbs import sample_direction
 from pavonine.pipeline.convert.rachis import RachisSpec, rachis_radius
 from pavonine.pipeline.convert.recipe import BarbOptions
@@ -275,9 +276,13 @@ def build_barbs(
     rachis: RachisSpec,
     layout: BarbOptions,
     displacement_cm: float = 0.0,
+    form: FormOptions | None = None,
+    seed: int = 0,
 ) -> BarbCurves:
     """Every barb of the feather (module docstring) from its maps and barb direction ``field``
-    (:func:`pavonine.pipeline.convert.barbs.barb_direction_field`)."""
+    (:func:`pavonine.pipeline.convert.barbs.barb_direction_field`); with ``form``, moved into
+    the feather's form by :func:`pavonine.pipeline.convert.barb_form.apply_form` (draws from
+    ``seed``), else lying on the sheet."""
     alpha = maps["alpha"]
     height = alpha.shape[0]
     spacing = layout.spacing_cm / frame.length  # square feather units
@@ -327,7 +332,7 @@ def build_barbs(
     dpdu, dpdv = frame.derivatives(uv)
     tangent = dpdu * (tangent2[:, :1] / frame.aspect) + dpdv * tangent2[:, 1:2]
     tangent = normalise(tangent - np.sum(tangent * normal, axis=1, keepdims=True) * normal)
-    return BarbCurves(
+    curves = BarbCurves(
         counts=counts.astype(np.int32),
         points=points,
         normals=normal,
@@ -341,6 +346,11 @@ def build_barbs(
         coverage=cover.astype(np.float64),
         barb_id=np.arange(len(counts), dtype=np.int32),
     )
+    if form is None:
+        return curves
+    along = normalise(dpdv)
+    half_width = 0.5 * frame.width
+    return apply_form(curves, along, rachis_barb, layout.spacing_cm, half_width, form, seed)
 
 
 #: Bisection steps placing a ring boundary along a barb segment (to 1/256 of a segment).

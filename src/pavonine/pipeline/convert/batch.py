@@ -42,7 +42,7 @@ from pavonine.pipeline.convert.barb_curves import BarbCurves, build_barbs
 from pavonine.pipeline.convert.barb_layer import barb_colors
 from pavonine.pipeline.convert.mesh import RACHIS_SHARE, MeshData, build_base, build_lod
 from pavonine.pipeline.convert.rachis import RachisSpec
-from pavonine.pipeline.convert.recipe import Recipe, parameter_key, parse_recipe
+from pavonine.pipeline.convert.recipe import Recipe, asset_seed, parameter_key, parse_recipe
 from pavonine.pipeline.convert.surface import FeatherFrame
 from pavonine.pipeline.maps.paint import MAP_NAMES
 from pavonine.pipeline.shading.looks import Looks
@@ -168,7 +168,16 @@ def build_meshes(
     if not opts.barbs.enabled:
         return lods, None
     with timer.stage("barbs"):
-        barbs = build_barbs(maps, geo.barb_field, frame, rachis, opts.barbs, opts.displacement_cm)
+        barbs = build_barbs(
+            maps,
+            geo.barb_field,
+            frame,
+            rachis,
+            opts.barbs,
+            opts.displacement_cm,
+            opts.form,
+            asset_seed(recipe.name) if opts.form.seed is None else opts.form.seed,
+        )
     return lods, barbs
 
 

@@ -33,6 +33,7 @@ from pavonine.materials.parameters import (
     freyer_class,
     preset,
 )
+from pavonine.pipeline.convert.barb_form import FORM_RANGES, FormOptions
 from pavonine.pipeline.maps.paint import MAP_NAMES
 
 #: A USD identifier; always used with ``fullmatch`` (``$`` would accept a trailing newline).
@@ -78,6 +79,7 @@ class GeometryOptions:
     base_triangles: int = 6_000  # coarse mesh atlased by xatlas before refinement
     lod: LodTargets = field(default_factory=LodTargets)
     barbs: BarbOptions = field(default_factory=BarbOptions)
+    form: FormOptions = field(default_factory=FormOptions)
 
 
 #: Bake resolutions a recipe may ask for (texels along each side of the square atlas).
@@ -212,6 +214,8 @@ def _parse_geometry(path: Path, table: dict) -> GeometryOptions:
             values["lod"] = targets
         elif f.name == "barbs":
             continue  # checked against the final length_cm below
+        elif f.name == "form":
+            values["form"] = _parse_form(path, raw)
         elif f.name == "base_triangles":
             values[f.name] = int(_number(path, key, raw, integer=True))
             if not 200 <= values[f.name] <= 60_000:
@@ -300,6 +304,33 @@ def _parse_barbs(path: Path, raw: Any, geometry: GeometryOptions) -> BarbOptions
             raise _fail(path, f"{key}.width_share", f"must lie in (0, 2], got {share:g}")
         values["width_share"] = share
     return BarbOptions(**values)
+
+
+def _parse_form(path: Path, raw: Any) -> FormOptions:
+    """``[geometry.form]``: every key checked (ranges in :data:`barb_form.FORM_RANGES`)."""
+    key = "geometry.form"
+    if not isinstance(raw, dict):
+        raise _fail(path, key, "expected a table [geometry.form]")
+    _check_keys(path, raw, {f.name for f in fields(FormOptions)}, f"{key}.")
+    values: dict[str, Any] = {}
+    if "enabled" in raw:
+        if not isinstance(raw["enabled"], bool):
+            raise _fail(path, f"{key}.enabled", f"expected true or false, got {raw['enabled']!r}")
+        values["enabled"] = raw["enabled"]
+    if "seed" in raw:
+        seed = int(_number(path, f"{key}.seed", raw["seed"], positive=False, integer=True))
+        if seed > 0x7FFFFFFF:
+            raise _fail(path, f"{key}.seed", f"must lie in [0, 2147483647], got {seed}")
+        values["seed"] = seed
+    for name, (low, high) in FORM_RANGES.items():
+        if name in raw:
+            value = float(_number(path, f"{key}.{name}", raw[name], positive=False))
+            if not low <= value <= high:
+                raise _fail(
+                    path, f"{key}.{name}", f"must lie in [{low:g}, {high:g}], got {value:g}"
+                )
+            values[name] = value
+    return FormOptions(**values)
 
 
 def _check_count(path: Path, key: str, value: float) -> None:
