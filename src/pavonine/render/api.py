@@ -244,6 +244,7 @@ class RenderSession:
                 and sensor_ids[i] == f"sensor_{i}"
             ]  # fmt: skip
             self.plan = motion.plan_motion(delegate, keys, cameras, diag, warn=blurred)
+            self.plan.scene = scene
             if default_lights and (self.plan.cameras or not self.plan.static):
                 self.plan.fixed.append("(the default lights, placed by the camera and bounds)")
             if any(job.camera is None for job in jobs) and not self.plan.static:

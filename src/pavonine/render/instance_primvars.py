@@ -173,8 +173,46 @@ def bind(scene, table, feather_bsdfs: Iterable) -> int:
     return len(shapes)
 
 
+def refresh_frames(scene, table, feather_bsdfs: Iterable, params) -> None:
+    """Give the feather BSDFs the instances' frames where ``params`` (``mi.traverse(scene)``,
+    the instances moved in place: :mod:`.motion`) has them now; without it a moved frame's
+    BSDF would read its mesh attributes through the first frame's instance frames."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from pavonine.render.feather_encoding import FRAME_FLOATS, INSTANCE_FRAME
+
+    feathers = list(feather_bsdfs)
+    if not feathers or not table.instances:
+        return
+    shapes = {shape.id(): shape for shape in scene.shapes() if shape.id() in table.instances}
+    frames = {key: _frame(_matrix(params[f"{key}.to_world"])) for key in shapes}
+    if dr.is_jit_v(mi.Float):
+        ids = {key: registry_id(shape) for key, shape in shapes.items()}
+        frame_table = np.tile(_frame(None), max(ids.values(), default=0) + 1)
+        for key, index in ids.items():
+            frame_table[index * FRAME_FLOATS : (index + 1) * FRAME_FLOATS] = frames[key]
+        lookup = mi.Float(frame_table)
+    else:
+        lookup = {key: tuple(frames[key]) for key in shapes}
+    for bsdf in feathers:
+        bsdf.set_instance_table(INSTANCE_FRAME, lookup, 0.0)
+
+
+def _matrix(to_world) -> np.ndarray:
+    """A Mitsuba transform's 4×4 matrix (a JIT variant's ``Transform4f`` holds one lane)."""
+    matrix = np.array(to_world.matrix, dtype=np.float64)
+    return matrix.reshape(4, 4) if matrix.size == 16 else matrix
+
+
 def _frame(to_world) -> np.ndarray:
-    """21 floats: world→instance affine rows (3×4), then the instance→world linear part (3×3)."""
-    matrix = np.eye(4) if to_world is None else np.array(to_world.matrix, dtype=np.float64)
+    """21 floats: world→instance affine rows (3×4), then the instance→world linear part (3×3)
+    (``to_world``: a Mitsuba transform, or its 4×4 matrix)."""
+    if to_world is None:
+        matrix = np.eye(4)
+    elif isinstance(to_world, np.ndarray):
+        matrix = to_world
+    else:
+        matrix = _matrix(to_world)
     inverse = np.linalg.inv(matrix)
     return np.concatenate([inverse[:3, :4].ravel(), matrix[:3, :3].ravel()]).astype(np.float32)

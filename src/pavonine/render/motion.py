@@ -48,7 +48,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from pavonine.base.errors import InputError
-from pavonine.render import deform
+from pavonine.render import deform, instance_primvars
 from pavonine.render import prim_kinds as kinds
 from pavonine.render.diagnostics import Diagnostics
 
@@ -214,6 +214,8 @@ class MotionPlan:
     fixed: list[str] = field(default_factory=list)
     time: float | None = None  # where the scene is now (None: the delegate's time)
     retimes: int = 0
+    #: the Mitsuba scene moved (its feather BSDFs follow their instances' frames)
+    scene: Any = None
 
     @property
     def static(self) -> bool:
@@ -255,6 +257,10 @@ class MotionPlan:
             if to_world is not None:
                 params[f"{sensor_id}.to_world"] = _transform(to_world)
         params.update()
+        if self.scene is not None and (self.instancers or self.natives):
+            instance_primvars.refresh_frames(
+                self.scene, self.delegate.table, self.delegate.feather_bsdfs, params
+            )
         self.time = time
         self.retimes += 1
         return clock.perf_counter() - started
