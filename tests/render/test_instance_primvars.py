@@ -162,3 +162,29 @@ def test_an_instanced_feather_renders_like_the_feather_in_place(tmp_path):
         for name in ("i.usda", "p.usda")
     )
     assert np.abs(a - b).mean() / b.mean() < 1e-3
+
+
+@pytest.mark.parametrize("glitter_b, feathers", [(None, 1), (0.5, 2)])
+def test_copies_of_one_material_share_one_feather_bsdf(glitter_b, feathers):
+    """Two prototypes that each reference the eye feather carry two copies of its material (two
+    paths, one content): they share one loaded feather BSDF (a Python BSDF is traced at every
+    render call, once per object; the rattle shot's 16 phase-shifted prototypes made 16 of them).
+    A copy whose content differs (its glitter) gets its own."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Pair")
+    targets = []
+    for name in ("A", "B"):
+        proto = stage.DefinePrim(f"/Pair/Prototypes/{name}", "Xform")
+        proto.GetReferences().AddReference(str(EYE))
+        proto.GetVariantSets().GetVariantSet("lod").SetVariantSelection("low")
+        targets.append(proto.GetPath())
+    if glitter_b is not None:
+        material = stage.OverridePrim("/Pair/Prototypes/B/Materials/Feather")
+        material.CreateAttribute("pavonine:glitter", Sdf.ValueTypeNames.Float).Set(glitter_b)
+    instancer.CreatePrototypesRel().SetTargets(targets)
+    instancer.CreateProtoIndicesAttr([0, 1])
+    instancer.CreatePositionsAttr([(-8.5, 0, 0), (8.5, 0, 0)])
+    delegate, _ = delegate_for(stage)
+    assert len(delegate.table.groups) == 2
+    assert len(delegate.feather_bsdfs) == feathers

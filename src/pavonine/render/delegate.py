@@ -517,8 +517,9 @@ class StageDelegate:
         return self._materials[key]
 
     def _bsdf(self, spec: materials.MaterialSpec, double_sided: bool, binding):
-        """The loaded BSDF of a material for one mesh (cached per sidedness and primvar binding)."""
-        key = (spec.key, double_sided and not spec.two_sided, binding)
+        """The loaded BSDF of a material for one mesh (cached per sidedness and primvar binding,
+        and shared by materials of the same content: :meth:`MaterialSpec.content_key`)."""
+        key = (spec.content_key(), double_sided and not spec.two_sided, binding)
         if key not in self._bsdfs:
             self._bsdfs[key] = materials.load_bsdf(
                 spec, double_sided, binding, spec.key, self.diag, feathers=self.feather_bsdfs

@@ -20,8 +20,9 @@ delegate asks for :func:`load_bsdf` / :meth:`MaterialSpec.emitter_dict` with tha
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any
 
 import numpy as np
@@ -53,6 +54,21 @@ class MaterialSpec:
     primvars: tuple[str, ...] = ()  # primvars read per mesh (placeholders in bsdf/opacity/emission)
     #: how the material displaces its meshes (:mod:`pavonine.render.displacement`), or ``None``
     displacement: Any = None
+
+    def content_key(self) -> tuple:
+        """What the material is, whatever its path: every field but :attr:`key`, arrays by their
+        bytes, other objects by identity. Two materials with the same content (the copies of one
+        material that phase-shifted prototypes carry) share their loaded BSDFs: a Python BSDF is
+        traced at every render call, once per distinct object."""
+        cached = self.__dict__.get("_content_key")
+        if cached is None:
+            cached = tuple(
+                (f.name, _fingerprint(getattr(self, f.name)))
+                for f in fields(self)
+                if f.name != "key"
+            )
+            self.__dict__["_content_key"] = cached
+        return cached
 
     def primvars_for(self, prim: Usd.Prim) -> tuple[str, dict[str, str]]:
         """``(uv primvar, attributes)`` for one mesh: a feather primvar the mesh lacks under its
@@ -110,6 +126,24 @@ class MaterialSpec:
             if max(radiance["value"]) <= 0.0:
                 return None
         return {"type": "area", "radiance": radiance}
+
+
+def _fingerprint(value: Any) -> Any:
+    """A hashable, content-exact stand-in for a material field (:meth:`MaterialSpec.content_key`)."""
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, dict):
+        return ("dict", tuple(sorted((str(k), _fingerprint(v)) for k, v in value.items())))
+    if isinstance(value, (list, tuple)):
+        return (type(value).__name__, tuple(_fingerprint(v) for v in value))
+    if isinstance(value, np.ndarray) or type(value).__module__.startswith("drjit"):
+        array = np.ascontiguousarray(np.asarray(value))  # a map's Dr.Jit tensor: its values
+        digest = hashlib.sha1(array.tobytes()).hexdigest()
+        return (type(value).__name__, array.shape, str(array.dtype), digest)
+    if is_dataclass(value) and not isinstance(value, type):
+        inner = tuple((f.name, _fingerprint(getattr(value, f.name))) for f in fields(value))
+        return (type(value).__qualname__, inner)
+    return ("object", id(value))  # shared only when it is the very same object
 
 
 def load_bsdf(
