@@ -2,8 +2,10 @@
 frames of the rattle shot:
 
     pavonine render assets/shots/peacock_rattle.usda -o FOLDER/rattle.exr --png --frames 1-6 \
-        --workers 2 --spp 8
+        --workers 2 --spp 64
     .venv/bin/python docs/rattle_animation.py FOLDER
+
+(64 spp: 8 time slices of the shot's shutter, −0.25…0.25 of a frame, by default.)
 
 The animation: the whole train halved (left, the close-up's box drawn) and the box four times
 (right, nearest neighbour: one block a pixel), 2 frames a second. The difference: |frame 2 −
@@ -36,7 +38,8 @@ def main(folder: Path) -> None:
         draw.text((8, 8), f"frame {i}", fill=(255, 255, 255))
         draw.text((8, 24), f"t = {i / 24:.4f} s", fill=(200, 200, 200))
         draw.text((8, 300), "25.6 Hz at 24 fps,", fill=(200, 200, 200))
-        draw.text((8, 316), "no motion blur yet", fill=(200, 200, 200))
+        draw.text((8, 316), "shutter -0.25..0.25", fill=(200, 200, 200))
+        draw.text((8, 332), "frame: motion blur", fill=(200, 200, 200))
         sheets.append(sheet)
     out = IMAGES / "peacock_rattle.png"
     sheets[0].save(out, save_all=True, append_images=sheets[1:], duration=500, loop=0,

@@ -154,45 +154,15 @@ def skinned_prototype_stage(path: Path) -> Path:
     """Two instances of one prototype: a bar whose second joint bends 90° about z between time 0
     and 10 (a UsdSkel rig inside the PointInstancer's prototype, vertex normals authored), seen
     from above before a glowing backdrop (``tests/render/test_motion.py``)."""
-    from pxr import UsdSkel, Vt
+    from skel_rig import bending_bar
 
     stage = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageUpAxis(stage, "Y")
     stage.SetStartTimeCode(0)
     stage.SetEndTimeCode(10)
     instancer = UsdGeom.PointInstancer.Define(stage, "/World/PI")
-    root = UsdSkel.Root.Define(stage, "/World/PI/Protos/Rig")
-    skeleton = UsdSkel.Skeleton.Define(stage, "/World/PI/Protos/Rig/Skel")
-    joints = ["a", "a/b"]
-    skeleton.CreateJointsAttr(joints)
-    bind = [Gf.Matrix4d(1), Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(1, 0, 0))]
-    skeleton.CreateRestTransformsAttr(bind)
-    skeleton.CreateBindTransformsAttr(bind)
-    anim = UsdSkel.Animation.Define(stage, "/World/PI/Protos/Rig/Skel/Anim")
-    anim.CreateJointsAttr(joints)
-    anim.CreateTranslationsAttr(Vt.Vec3fArray([(0, 0, 0), (1, 0, 0)]))
-    anim.CreateScalesAttr(Vt.Vec3hArray([(1, 1, 1), (1, 1, 1)]))
-    rotations = anim.CreateRotationsAttr()
-    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(1)]), 0)
-    turn = Gf.Rotation(Gf.Vec3d(0, 0, 1), 90).GetQuat()
-    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(turn)]), 10)
-    UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets(
-        [anim.GetPath()]
-    )
-    bar = UsdGeom.Mesh.Define(stage, "/World/PI/Protos/Rig/Bar")
-    bar.CreatePointsAttr(
-        [(0, -0.2, 0), (1, -0.2, 0), (2, -0.2, 0), (2, 0.2, 0), (1, 0.2, 0), (0, 0.2, 0)]
-    )
-    bar.CreateFaceVertexCountsAttr([4, 4])
-    bar.CreateFaceVertexIndicesAttr([0, 1, 4, 5, 1, 2, 3, 4])
-    bar.CreateSubdivisionSchemeAttr("none")
-    bar.CreateNormalsAttr([(0, 0, 1)] * 6)
-    bar.SetNormalsInterpolation("vertex")
-    binding = UsdSkel.BindingAPI.Apply(bar.GetPrim())
-    binding.CreateSkeletonRel().SetTargets([skeleton.GetPath()])
-    binding.CreateJointIndicesPrimvar(False, 1).Set([0, 0, 1, 1, 0, 0])
-    binding.CreateJointWeightsPrimvar(False, 1).Set([1.0] * 6)
-    UsdSkel.BindingAPI.Apply(root.GetPrim())
+    root = bending_bar(stage, "/World/PI/Protos/Rig", half_width=0.2, normals=True).GetPrim()
+    root = root.GetParent()
     instancer.CreatePrototypesRel().SetTargets([root.GetPath()])
     instancer.CreateProtoIndicesAttr([0, 0])
     instancer.CreatePositionsAttr([Gf.Vec3f(-2.5, -1, 0), Gf.Vec3f(0.5, -1, 0)])

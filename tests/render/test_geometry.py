@@ -510,43 +510,10 @@ def test_wrongly_typed_geometry_attributes_warn_by_prim_and_attribute():
 
 
 def skinned_bar(stage):
-    """A two-joint skeleton bending its second joint 90° about Z between time 0 and 10, and a bar
-    of points bound rigidly: the first two points to joint 0, the tip points to joint 1."""
-    from pxr import UsdSkel, Vt
+    """The bending bar of :func:`skel_rig.bending_bar` at ``/Rig`` (0.2 wide, no normals)."""
+    from skel_rig import bending_bar
 
-    root = UsdSkel.Root.Define(stage, "/Rig")
-    skeleton = UsdSkel.Skeleton.Define(stage, "/Rig/Skel")
-    joints = ["a", "a/b"]
-    skeleton.CreateJointsAttr(joints)
-    rest = [Gf.Matrix4d(1), Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(1, 0, 0))]
-    skeleton.CreateRestTransformsAttr(rest)
-    skeleton.CreateBindTransformsAttr(
-        [Gf.Matrix4d(1), Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(1, 0, 0))]
-    )
-    anim = UsdSkel.Animation.Define(stage, "/Rig/Skel/Anim")
-    anim.CreateJointsAttr(joints)
-    anim.CreateTranslationsAttr(Vt.Vec3fArray([(0, 0, 0), (1, 0, 0)]))
-    anim.CreateScalesAttr(Vt.Vec3hArray([(1, 1, 1), (1, 1, 1)]))
-    rotations = anim.CreateRotationsAttr()
-    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(1)]), 0)
-    turn = Gf.Rotation(Gf.Vec3d(0, 0, 1), 90).GetQuat()
-    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(turn)]), 10)
-    UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets(
-        [anim.GetPath()]
-    )
-    mesh = UsdGeom.Mesh.Define(stage, "/Rig/Bar")
-    mesh.CreatePointsAttr(
-        [(0, -0.1, 0), (1, -0.1, 0), (2, -0.1, 0), (2, 0.1, 0), (1, 0.1, 0), (0, 0.1, 0)]
-    )
-    mesh.CreateFaceVertexCountsAttr([4, 4])
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 5, 1, 2, 3, 4])
-    mesh.CreateSubdivisionSchemeAttr("none")
-    binding = UsdSkel.BindingAPI.Apply(mesh.GetPrim())
-    binding.CreateSkeletonRel().SetTargets([skeleton.GetPath()])
-    binding.CreateJointIndicesPrimvar(False, 1).Set([0, 0, 1, 1, 0, 0])
-    binding.CreateJointWeightsPrimvar(False, 1).Set([1.0] * 6)
-    UsdSkel.BindingAPI.Apply(root.GetPrim())
-    return mesh
+    return bending_bar(stage)
 
 
 def test_skinned_points_follow_the_animation_at_the_render_time():
