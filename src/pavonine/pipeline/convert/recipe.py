@@ -267,17 +267,24 @@ MIN_SEGMENT_SHARE = 1.0 / 1000.0
 MAX_TIP_BARBS = 4000
 
 
-def _parse_barbs(path: Path, raw: Any, geometry: GeometryOptions) -> BarbOptions:
-    """``[geometry.barbs]``: every key checked, lengths against the feather's ``length_cm``."""
-    key = "geometry.barbs"
+def _switchable_table(path: Path, raw: Any, key: str, options: type) -> dict[str, Any]:
+    """A sub-table ``[key]`` of the dataclass ``options``' keys checked, with its ``enabled``
+    switch read; the values read so far (the caller reads the rest)."""
     if not isinstance(raw, dict):
-        raise _fail(path, key, "expected a table [geometry.barbs]")
-    _check_keys(path, raw, {f.name for f in fields(BarbOptions)}, f"{key}.")
+        raise _fail(path, key, f"expected a table [{key}]")
+    _check_keys(path, raw, {f.name for f in fields(options)}, f"{key}.")
     values: dict[str, Any] = {}
     if "enabled" in raw:
         if not isinstance(raw["enabled"], bool):
             raise _fail(path, f"{key}.enabled", f"expected true or false, got {raw['enabled']!r}")
         values["enabled"] = raw["enabled"]
+    return values
+
+
+def _parse_barbs(path: Path, raw: Any, geometry: GeometryOptions) -> BarbOptions:
+    """``[geometry.barbs]``: every key checked, lengths against the feather's ``length_cm``."""
+    key = "geometry.barbs"
+    values = _switchable_table(path, raw, key, BarbOptions)
     if "tip_barbs" in raw:
         count = int(_number(path, f"{key}.tip_barbs", raw["tip_barbs"], integer=True))
         if not 4 <= count <= MAX_TIP_BARBS:
@@ -309,14 +316,7 @@ def _parse_barbs(path: Path, raw: Any, geometry: GeometryOptions) -> BarbOptions
 def _parse_form(path: Path, raw: Any) -> FormOptions:
     """``[geometry.form]``: every key checked (ranges in :data:`barb_form.FORM_RANGES`)."""
     key = "geometry.form"
-    if not isinstance(raw, dict):
-        raise _fail(path, key, "expected a table [geometry.form]")
-    _check_keys(path, raw, {f.name for f in fields(FormOptions)}, f"{key}.")
-    values: dict[str, Any] = {}
-    if "enabled" in raw:
-        if not isinstance(raw["enabled"], bool):
-            raise _fail(path, f"{key}.enabled", f"expected true or false, got {raw['enabled']!r}")
-        values["enabled"] = raw["enabled"]
+    values = _switchable_table(path, raw, key, FormOptions)
     if "seed" in raw:
         seed = int(_number(path, f"{key}.seed", raw["seed"], positive=False, integer=True))
         if seed > 0x7FFFFFFF:
