@@ -137,32 +137,31 @@ class Barbules(FeatherBSDF):
         self._pattern_point = None
 
     # -- Mitsuba BSDF interface ---------------------------------------------------------------
+    def _through_tilt(self, method, ctx, si, wo, active):
+        """``method`` (the feather's ``eval``, ``pdf`` or ``eval_pdf``) in the barbule's tilted
+        frame at ``si``, and where its result stands (a barbule there, ``wo`` on ``wi``'s side)."""
+        point, tilted = self._begin(si, active)
+        wo_t = tilted.sh_frame.to_local(si.to_world(wo))
+        result = method(self, ctx, tilted, wo_t, active & point.present)
+        self._end()
+        return result, point.present & (si.wi.z * wo.z > 0.0)
+
     def eval(self, ctx, si, wo, active=True):
         import drjit as dr
 
-        point, tilted = self._begin(si, active)
-        wo_t = tilted.sh_frame.to_local(si.to_world(wo))
-        value = FeatherBSDF.eval(self, ctx, tilted, wo_t, active & point.present)
-        self._end()
-        return dr.select(point.present & (si.wi.z * wo.z > 0.0), value, 0.0)
+        value, ok = self._through_tilt(FeatherBSDF.eval, ctx, si, wo, active)
+        return dr.select(ok, value, 0.0)
 
     def pdf(self, ctx, si, wo, active=True):
         import drjit as dr
 
-        point, tilted = self._begin(si, active)
-        wo_t = tilted.sh_frame.to_local(si.to_world(wo))
-        pdf = FeatherBSDF.pdf(self, ctx, tilted, wo_t, active & point.present)
-        self._end()
-        return dr.select(point.present & (si.wi.z * wo.z > 0.0), pdf, 0.0)
+        pdf, ok = self._through_tilt(FeatherBSDF.pdf, ctx, si, wo, active)
+        return dr.select(ok, pdf, 0.0)
 
     def eval_pdf(self, ctx, si, wo, active=True):
         import drjit as dr
 
-        point, tilted = self._begin(si, active)
-        wo_t = tilted.sh_frame.to_local(si.to_world(wo))
-        value, pdf = FeatherBSDF.eval_pdf(self, ctx, tilted, wo_t, active & point.present)
-        self._end()
-        ok = point.present & (si.wi.z * wo.z > 0.0)
+        (value, pdf), ok = self._through_tilt(FeatherBSDF.eval_pdf, ctx, si, wo, active)
         return dr.select(ok, value, 0.0), dr.select(ok, pdf, 0.0)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
