@@ -139,22 +139,18 @@ def bind(scene, table, feather_bsdfs: Iterable) -> int:
     import drjit as dr
     import mitsuba as mi
 
-    from pavonine.render.feather_encoding import FRAME_FLOATS, INSTANCE_FRAME
+    from pavonine.render.feather_encoding import INSTANCE_FRAME
 
     feathers = list(feather_bsdfs)
     if not feathers or not table.instances:
         return 0
-    shapes = {shape.id(): shape for shape in scene.shapes() if shape.id() in table.instances}
+    shapes = _instance_shapes(scene, table)
     frames = {key: _frame(table.instances[key]["to_world"]) for key in shapes}
     names = sorted({name for entry in table.primvars.values() for name in entry})
-    jit = dr.is_jit_v(mi.Float)
-    if jit:
+    lookups = {INSTANCE_FRAME: (_frame_lookup(shapes, frames), 0.0)}
+    if dr.is_jit_v(mi.Float):
         ids = {key: registry_id(shape) for key, shape in shapes.items()}
         size = max(ids.values(), default=0) + 1
-        frame_table = np.tile(_frame(None), size)
-        for key, index in ids.items():
-            frame_table[index * FRAME_FLOATS : (index + 1) * FRAME_FLOATS] = frames[key]
-        lookups = {INSTANCE_FRAME: (mi.Float(frame_table), 0.0)}
         for name in names:
             spec = FEATHER_PRIMVARS[name]
             values = np.full(size, spec.neutral, dtype=np.float32)
@@ -162,7 +158,6 @@ def bind(scene, table, feather_bsdfs: Iterable) -> int:
                 values[index] = table.primvars.get(key, {}).get(name, spec.neutral)
             lookups[spec.key] = (mi.Float(values), spec.neutral)
     else:  # scalar variants: ``si.instance`` is the instance object itself
-        lookups = {INSTANCE_FRAME: ({key: tuple(frames[key]) for key in shapes}, 0.0)}
         for name in names:
             spec = FEATHER_PRIMVARS[name]
             values = {key: table.primvars.get(key, {}).get(name, spec.neutral) for key in shapes}
@@ -177,26 +172,38 @@ def refresh_frames(scene, table, feather_bsdfs: Iterable, params) -> None:
     """Give the feather BSDFs the instances' frames where ``params`` (``mi.traverse(scene)``,
     the instances moved in place: :mod:`.motion`) has them now; without it a moved frame's
     BSDF would read its mesh attributes through the first frame's instance frames."""
-    import drjit as dr
-    import mitsuba as mi
-
-    from pavonine.render.feather_encoding import FRAME_FLOATS, INSTANCE_FRAME
+    from pavonine.render.feather_encoding import INSTANCE_FRAME
 
     feathers = list(feather_bsdfs)
     if not feathers or not table.instances:
         return
-    shapes = {shape.id(): shape for shape in scene.shapes() if shape.id() in table.instances}
+    shapes = _instance_shapes(scene, table)
     frames = {key: _frame(_matrix(params[f"{key}.to_world"])) for key in shapes}
-    if dr.is_jit_v(mi.Float):
-        ids = {key: registry_id(shape) for key, shape in shapes.items()}
-        frame_table = np.tile(_frame(None), max(ids.values(), default=0) + 1)
-        for key, index in ids.items():
-            frame_table[index * FRAME_FLOATS : (index + 1) * FRAME_FLOATS] = frames[key]
-        lookup = mi.Float(frame_table)
-    else:
-        lookup = {key: tuple(frames[key]) for key in shapes}
+    lookup = _frame_lookup(shapes, frames)
     for bsdf in feathers:
         bsdf.set_instance_table(INSTANCE_FRAME, lookup, 0.0)
+
+
+def _instance_shapes(scene, table) -> dict:
+    """The scene's instance shapes that ``table`` made, by id."""
+    return {shape.id(): shape for shape in scene.shapes() if shape.id() in table.instances}
+
+
+def _frame_lookup(shapes: dict, frames: dict[str, np.ndarray]):
+    """The feathers' ``INSTANCE_FRAME`` table: the frames by registry id in a JIT variant (the
+    identity frame elsewhere), by instance id in a scalar one (``si.instance`` is the object)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from pavonine.render.feather_encoding import FRAME_FLOATS
+
+    if not dr.is_jit_v(mi.Float):
+        return {key: tuple(frames[key]) for key in shapes}
+    ids = {key: registry_id(shape) for key, shape in shapes.items()}
+    frame_table = np.tile(_frame(None), max(ids.values(), default=0) + 1)
+    for key, index in ids.items():
+        frame_table[index * FRAME_FLOATS : (index + 1) * FRAME_FLOATS] = frames[key]
+    return mi.Float(frame_table)
 
 
 def _matrix(to_world) -> np.ndarray:
