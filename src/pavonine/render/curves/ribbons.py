@@ -55,10 +55,16 @@ def has_normals(prim: Usd.Prim) -> bool:
 
 
 def ribbon_surface(
-    prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics, steps: int = STEPS
+    prim: Usd.Prim,
+    time: Usd.TimeCode,
+    diag: Diagnostics,
+    steps: int = STEPS,
+    barbules: bool = True,
 ) -> Surface | None:
     """The curves as ribbon quads (object space); ``None`` (warned) when they cannot be ribbons:
-    no renderable curve, or normals that do not fit their interpolation (rendered as tubes)."""
+    no renderable curve, or normals that do not fit their interpolation (rendered as tubes).
+    ``barbules=False``: a feather's barbs too as the plain flat ribbon of their authored width
+    (USD's own ribbon; the portable export, :mod:`pavonine.pipeline.export.portable_usd`)."""
     topology = read_curves(prim, time, diag)
     if topology is None:
         return None
@@ -77,7 +83,9 @@ def ribbon_surface(
             "the curve, or no curve direction; the ribbon narrows to nothing there",
         )
     half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
-    if _carries_barbules(prim):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
+    if barbules and _carries_barbules(
+        prim
+    ):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
         reach = values.get(BARBULES)
         reach = np.zeros_like(half) if reach is None else np.clip(reach[:, :1], 0.0, MAX_REACH)
         return _barb_surface(prim, samples, values["P"], normal, side, half, reach, diag)
