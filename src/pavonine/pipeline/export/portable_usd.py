@@ -7,8 +7,8 @@ relative to the output's folder so the maps and textures still resolve). Every r
 ``BasisCurves`` prim (curves with authored ``normals``: the barbs) then becomes, at the same path,
 a triangle ``Mesh``: the flat ribbon of the curves' authored width facing their normals, exactly
 the tessellation Pavonine's renderer draws for USD ribbons
-(:func:`pavonine.render.curves.ribbons.ribbon_surface` with ``barbules=False``: the same
-vertices, not a second implementation), with its vertex normals, ``displayColor`` (the bake's
+(:func:`pavonine.pipeline.export.ribbons.ribbon_prim_surface`: the renderer's
+``ribbon_surface`` with ``barbules=False``, the same vertices the glTF export writes), with its vertex normals, ``displayColor`` (the bake's
 colour), ``displayOpacity`` where authored, the barb id per triangle, and an all-purpose
 ``material:binding`` to the curves' preview material (``material:binding:preview``, the
 asset's ``FeatherBarbsPreview``: ``UsdPreviewSurface`` whose diffuse colour is a
@@ -131,13 +131,12 @@ def _is_ribbons(prim) -> bool:
 def replace_with_ribbon_mesh(stage, prim, materials: list[str]) -> dict:
     """Replace the ribbon curves ``prim`` by their ribbon mesh at the same path, bound to their
     preview material (its path appended to ``materials`` once); the report row."""
-    from pxr import Sdf, Usd, UsdGeom, UsdShade, Vt
+    from pxr import Sdf, UsdGeom, UsdShade, Vt
 
-    from pavonine.render.curves.ribbons import ribbon_surface
-    from pavonine.render.diagnostics import Diagnostics
+    from pavonine.pipeline.export.ribbons import ribbon_prim_surface
 
     where = str(prim.GetPath())
-    surface = ribbon_surface(prim, Usd.TimeCode.Default(), Diagnostics(), barbules=False)
+    surface = ribbon_prim_surface(prim)
     if surface is None:
         raise InputError(where, "the ribbon curves have no renderable ribbon")
     material = _preview_material(stage, prim)
