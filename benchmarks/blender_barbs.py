@@ -17,7 +17,9 @@ BSDF's Base Color: it must be the ``displayColor`` attribute, not the default gr
 camera and sun; per zone (tests/ocellus_zones.py on the sheet's silhouette: the barbs cover the
 same vane) ΔE2000 between the zone means of Cycles and Pavonine on the portable USD, and of
 each against Pavonine on the native barbs; the share of the feather's pixels each draws.
-PNGs (Pavonine portable | Cycles | Pavonine native barbs) go to the output folder.
+For comparison Blender also imports the scene on the asset's own ``barbs`` level (the curves,
+as the issue found them). A PNG (Pavonine portable | Cycles portable | Cycles on the curves |
+Pavonine native barbs) goes to the output folder.
 
 Blender's Python module is not a project dependency: bpy 5.3 needs CPython 3.13, in a virtual
 environment of its own whose python is ``--bpy-python`` (default ``$PAVONINE_BPY_PYTHON``):
@@ -170,6 +172,11 @@ def main() -> None:
     print(f"Cycles {args.cycles_samples} spp: {time.perf_counter() - started:.0f} s (with import)")
     bound = _importer(report)
     images = {"cycles": read_exr(report["cycles"])[0]}
+    # what Blender makes of the asset's own barbs level (the curves), for comparison
+    before = _child(bpy_python, {**job, "usd": str(scenes["native"])}, out / "blender_native")
+    print("\nThe same with the asset's own barbs (the curves, no portable export):")
+    _importer(before)
+    images["cycles_curves"] = read_exr(before["cycles"])[0]
     for name in ("portable", "native"):
         started = time.perf_counter()
         rendered = render_stage(
@@ -179,10 +186,16 @@ def main() -> None:
         images[name] = rendered.rgb
     masks = zone_masks(scenes["sheet"], root.parent / "maps", width, height)
     shown = {k: np.clip(v[..., :3], 0.0, None) for k, v in images.items()}
-    pairs = [("cycles", "portable"), ("cycles", "native"), ("portable", "native")]
+    pairs = [
+        ("cycles", "portable"),
+        ("cycles", "native"),
+        ("portable", "native"),
+        ("cycles_curves", "native"),
+    ]
     deltas = {p: zone_delta_e(shown[p[0]], shown[p[1]], masks) for p in pairs}
     print("\nΔE2000 of the zone means (linear Rec. 709, negative clipped)")
     header = "".join(f"  {a + ' vs ' + b:>20}" for a, b in pairs)
+    print("  (cycles: Blender on the portable USD; cycles_curves: on the asset's own curves)")
     print(f"  {'zone':>16}  pixels{header}  {'Cycles mean RGB':>24}  {'Pavonine portable':>24}")
     for k in sorted(masks, reverse=True):
         cells = "".join(f"  {deltas[p][k]:20.2f}" for p in pairs)
@@ -194,19 +207,27 @@ def main() -> None:
         f"  {'mean (5 zones)':>16}  {'':>6}"
         + "".join(f"  {np.mean([deltas[p][k] for k in zones]):20.2f}" for p in pairs)
     )
-    alpha = images["cycles"][..., 3] >= 0.5
-    feather = np.zeros_like(alpha)
+    feather = np.zeros((height, width), dtype=bool)
     for mask in masks.values():
         feather |= mask
-    print(
-        f"\nInside the zones ({int(feather.sum())} px) Cycles draws the feather on "
-        f"{alpha[feather].mean():.1%} of them (alpha ≥ 0.5)"
-    )
+    for name in ("cycles", "cycles_curves"):
+        alpha = images[name][..., 3] >= 0.5
+        print(
+            f"Inside the zones ({int(feather.sum())} px) {name} draws the feather on "
+            f"{alpha[feather].mean():.1%} of them (alpha ≥ 0.5)"
+        )
     sky = np.array(SKY)
-    cycles = images["cycles"][..., :3] + (1.0 - images["cycles"][..., 3:]) * sky
+    over = {
+        k: images[k][..., :3] + (1.0 - images[k][..., 3:]) * sky
+        for k in ("cycles", "cycles_curves")
+    }
+    panels = [images["portable"], over["cycles"], over["cycles_curves"], images["native"]]
     png = out / "portable_cycles_native.png"
-    write_png(png, np.concatenate([images["portable"], cycles, images["native"]], axis=1))
-    print(f"side by side (Pavonine portable | Cycles | Pavonine native barbs): {png}")
+    write_png(png, np.concatenate(panels, axis=1))
+    print(
+        "side by side (Pavonine portable | Cycles portable | Cycles on the asset's curves | "
+        f"Pavonine native barbs): {png}"
+    )
     print(f"barbs bound to their displayColor in Blender: {'yes' if bound else 'NO'}")
     if not bound:
         raise SystemExit(1)
