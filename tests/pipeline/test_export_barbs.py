@@ -15,6 +15,7 @@ from test_gltf import _validator
 
 from pavonine.apps.cli import cli
 from pavonine.pipeline.export.ribbons import ribbon_prim_mesh
+from pavonine.render.curves.ribbons import plain_ribbons
 
 
 def run(*args):
@@ -34,7 +35,7 @@ def test_a_ribbon_spans_its_width_across_its_normal_facing_it():
     widths = np.array([0.2, 0.4, 0.0, 1.0, 1.0])
     curves.CreateWidthsAttr(widths.tolist())
     curves.SetWidthsInterpolation("vertex")
-    mesh, colours = ribbon_prim_mesh(curves.GetPrim())
+    mesh, colours = ribbon_prim_mesh(curves.GetPrim(), plain_ribbons)
     assert colours is None and len(mesh.triangles) == 2 * (2 + 1)  # two per segment
     edge = mesh.points[1::2] - mesh.points[0::2]  # across each sample: a segment's two ends
     expected = np.concatenate([widths[[0, 1, 3]], widths[[1, 2, 4]]])

@@ -18,8 +18,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdShade, UsdUtils
 
 from pavonine.apps.cli import cli
 from pavonine.pipeline.export.selection import open_selected
-from pavonine.render.curves.ribbons import ribbon_surface
-from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.curves.ribbons import plain_ribbons
 
 REPO = Path(__file__).resolve().parents[2]
 EYE = REPO / "assets" / "feathers" / "eye_feather"
@@ -57,7 +56,7 @@ def test_the_barbs_become_the_renderers_own_ribbon_vertices(portable):
     assert [m["path"] for m in report["meshes"]] == [BARBS]
     mesh = _mesh(out)
     assert mesh.GetPrim().GetTypeName() == "Mesh"
-    drawn = ribbon_surface(curves, Usd.TimeCode.Default(), Diagnostics(), barbules=False)
+    drawn = plain_ribbons(curves)  # what the CLI hands the export: the renderer's ribbons
     points = np.array(mesh.GetPointsAttr().Get())
     assert np.array_equal(points, drawn.topology.points.astype(np.float32))
     indices = np.array(mesh.GetFaceVertexIndicesAttr().Get())

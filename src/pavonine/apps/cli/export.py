@@ -74,8 +74,8 @@ JSON_SCHEMA = {
 @click.option(
     "--geometry",
     default=None,
-    help="The asset's 'geometry' variant: sheet or barbs (ribbon meshes with their displayColor "
-    "as COLOR_0) [default: its own].",
+    help="The asset's 'geometry' variant: sheet or barbs (ribbon meshes with their displayColor: "
+    "COLOR_0 in glTF, a bound preview in USD) [default: its own].",
 )
 @click.option(
     "--eye",
@@ -117,11 +117,12 @@ def export(
     """
     from pavonine.pipeline.export.gltf import export_gltf
     from pavonine.pipeline.export.portable_usd import export_portable_usd, is_portable_target
+    from pavonine.render.curves.ribbons import plain_ribbons  # the renderer's own ribbons
 
     if is_portable_target(output):
         if eye is not None:
             raise InputError("--eye", "fits the glTF's look; a portable USD has none to fit")
-        usd = export_portable_usd(asset, output, lod, geometry)
+        usd = export_portable_usd(asset, output, plain_ribbons, lod, geometry)
         triangles = sum(m["triangles"] for m in usd.meshes)
         say(
             f"wrote   {usd.output}: {len(usd.meshes)} ribbon meshes, {triangles:,} triangles, "
@@ -130,7 +131,7 @@ def export(
         emit_json(json_target, usd.as_dict())
         return
 
-    report = export_gltf(asset, output, lod, geometry, eye)
+    report = export_gltf(asset, output, lod, geometry, eye, plain_ribbons)
     triangles = sum(m["triangles"] for m in report.meshes)
     say(
         f"wrote   {report.output}: {len(report.meshes)} meshes, {triangles:,} triangles, "

@@ -46,6 +46,7 @@ from pavonine.pipeline.bake.asset import bound_meshes, mesh_data, root_layer_pat
 from pavonine.pipeline.bake.textures import THICKNESS_MAX_NM
 from pavonine.pipeline.export.iridescence import SUBSTRATE_F0_MAX
 from pavonine.pipeline.export.look import fitted_look
+from pavonine.pipeline.export.ribbons import Tessellate
 from pavonine.pipeline.export.selection import open_selected
 
 IRIDESCENCE = "KHR_materials_iridescence"
@@ -296,15 +297,20 @@ def _split_vertices(mesh) -> tuple[np.ndarray, np.ndarray]:
     return pairs, triangles.reshape(-1).astype(np.uint32)
 
 
-def _export_ribbons(out, prim, cache, default, scale, materials, report, children) -> None:
-    """One glTF mesh of a ribbon ``BasisCurves`` prim: its triangles, normals and displayColor
-    as ``COLOR_0``, with a vertex-colour material from its preview-purpose binding."""
+def _export_ribbons(
+    out, prim, cache, default, scale, materials, report, children, tessellate
+) -> None:
+    """One glTF mesh of a ribbon ``BasisCurves`` prim: its triangles as ``tessellate`` draws
+    them, normals and displayColor as ``COLOR_0``, with a vertex-colour material from its
+    preview-purpose binding."""
     from pxr import UsdGeom, UsdShade
 
     from pavonine.pipeline.export.ribbons import ribbon_prim_mesh, vertex_colour_material
 
     purpose = UsdGeom.Imageable(prim).ComputePurpose()
-    found = ribbon_prim_mesh(prim)
+    if tessellate is None:
+        raise InputError(str(prim.GetPath()), "ribbon curves need the renderer's tessellation")
+    found = ribbon_prim_mesh(prim, tessellate)
     if found is None or purpose not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
         return
     ribbons, colours = found
@@ -385,11 +391,13 @@ def export_gltf(
     lod: str | None = None,
     geometry: str | None = None,
     eye: tuple[float, float, float] | None = None,
+    tessellate: Tessellate | None = None,
 ):
     """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``;
-    ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes,
-    :mod:`pavonine.pipeline.export.ribbons`); ``eye`` (the asset's space and units) is the viewer
-    the feather's look is fitted for (default: where ``pavonine view`` frames the asset)."""
+    ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes
+    drawn by ``tessellate``, the renderer's, :mod:`pavonine.pipeline.export.ribbons`); ``eye``
+    (the asset's space and units) is the viewer the feather's look is fitted for (default: where
+    ``pavonine view`` frames the asset)."""
     from pxr import Usd, UsdGeom, UsdShade
 
     root = root_layer_path(asset)
@@ -413,7 +421,9 @@ def export_gltf(
     children = []
     for prim in Usd.PrimRange(default):
         if prim.IsA(UsdGeom.BasisCurves):
-            _export_ribbons(out, prim, cache, default, scale, materials, report, children)
+            _export_ribbons(
+                out, prim, cache, default, scale, materials, report, children, tessellate
+            )
             continue
         if not prim.IsA(UsdGeom.Mesh):
             continue

@@ -6,9 +6,9 @@ layer (:meth:`Usd.Stage.Flatten`: every payload, reference and variant baked in,
 relative to the output's folder so the maps and textures still resolve). Every ribbon
 ``BasisCurves`` prim (curves with authored ``normals``: the barbs) then becomes, at the same path,
 a triangle ``Mesh``: the flat ribbon of the curves' authored width facing their normals, exactly
-the tessellation Pavonine's renderer draws for USD ribbons
-(:func:`pavonine.pipeline.export.ribbons.ribbon_prim_surface`: the renderer's
-``ribbon_surface`` with ``barbules=False``, the same vertices the glTF export writes), with its vertex normals, ``displayColor`` (the bake's
+the tessellation Pavonine's renderer draws for USD ribbons (its plain ribbon, handed in by the
+application as ``tessellate``: :func:`pavonine.render.curves.ribbons.plain_ribbons`, the same
+vertices the glTF export writes; :mod:`pavonine.pipeline.export.ribbons`), with its vertex normals, ``displayColor`` (the bake's
 colour), ``displayOpacity`` where authored, the barb id per triangle, and an all-purpose
 ``material:binding`` to the curves' preview material (``material:binding:preview``, the
 asset's ``FeatherBarbsPreview``: ``UsdPreviewSurface`` whose diffuse colour is a
@@ -32,6 +32,7 @@ import numpy as np
 from pavonine.base.commit import atomic_path
 from pavonine.base.errors import InputError
 from pavonine.pipeline.bake.asset import root_layer_path
+from pavonine.pipeline.export.ribbons import Tessellate
 from pavonine.pipeline.export.selection import open_selected
 from pavonine.schemas.primvars import BARB_ID_PRIMVAR
 
@@ -77,12 +78,14 @@ def is_portable_target(output: str | os.PathLike) -> bool:
 def export_portable_usd(
     asset: str | os.PathLike,
     output: str | os.PathLike,
+    tessellate: Tessellate,
     lod: str | None = None,
     geometry: str | None = None,
 ) -> PortableReport:
     """Write ``asset`` with ``lod`` and ``geometry`` selected (default: its own) to ``output``,
-    its ribbon curves as preview-bound meshes (module docstring); written atomically."""
-    from pxr import Sdf, Usd, UsdUtils
+    its ribbon curves as preview-bound meshes drawn by ``tessellate`` (module docstring);
+    written atomically."""
+    from pxr import Sdf, Usd, UsdGeom, UsdUtils
 
     output = Path(output)
     if not is_portable_target(output):
@@ -99,8 +102,12 @@ def export_portable_usd(
     folder = output.resolve().parent
     UsdUtils.ModifyAssetPaths(flat, lambda path: _relative(path, folder))
     portable = Usd.Stage.Open(flat)
-    for prim in [p for p in portable.Traverse() if _is_ribbons(p)]:
-        report.meshes.append(replace_with_ribbon_mesh(portable, prim, report.materials))
+    for prim in [p for p in portable.Traverse() if p.IsA(UsdGeom.BasisCurves)]:
+        surface = tessellate(prim)
+        if surface is not None:  # ribbons (tubes stay curves)
+            report.meshes.append(
+                replace_with_ribbon_mesh(portable, prim, surface, report.materials)
+            )
     suffix = output.suffix.lower()
     with atomic_path(output) as tmp:
         layer = Sdf.Layer.CreateNew(
@@ -120,25 +127,13 @@ def _relative(path: str, folder: Path) -> str:
     return relative if relative.startswith("..") else f"./{relative}"
 
 
-def _is_ribbons(prim) -> bool:
-    from pxr import UsdGeom
-
-    from pavonine.render.curves.ribbons import has_normals
-
-    return prim.IsA(UsdGeom.BasisCurves) and has_normals(prim)
-
-
-def replace_with_ribbon_mesh(stage, prim, materials: list[str]) -> dict:
-    """Replace the ribbon curves ``prim`` by their ribbon mesh at the same path, bound to their
-    preview material (its path appended to ``materials`` once); the report row."""
+def replace_with_ribbon_mesh(stage, prim, surface, materials: list[str]) -> dict:
+    """Replace the ribbon curves ``prim`` by ``surface`` (their ribbon, as :data:`Tessellate`
+    draws it) as a mesh at the same path, bound to their preview material (its path appended to
+    ``materials`` once); the report row."""
     from pxr import Sdf, UsdGeom, UsdShade, Vt
 
-    from pavonine.pipeline.export.ribbons import ribbon_prim_surface
-
     where = str(prim.GetPath())
-    surface = ribbon_prim_surface(prim)
-    if surface is None:
-        raise InputError(where, "the ribbon curves have no renderable ribbon")
     material = _preview_material(stage, prim)
     spec = stage.GetRootLayer().GetPrimAtPath(prim.GetPath())
     for prop in list(spec.properties):

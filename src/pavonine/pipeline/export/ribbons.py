@@ -2,19 +2,28 @@
 
 USD draws a curve with authored ``normals`` as a ribbon facing them (UsdGeom, "Tubes and
 Ribbons"): at each point the ribbon spans ``width`` across ``normal × tangent``. The triangles are
-the ones Pavonine's renderer draws for such curves
-(:func:`pavonine.render.curves.ribbons.ribbon_surface`, its plain ribbon: the authored width, no
-barbules), so every host gets the renderer's own geometry, not a second tessellation: each
-segment evaluated in its basis (linear: its two ends; cubic: a few steps), two vertices across
-each sample, two triangles per piece, wound counter-clockwise seen from the side the normals
-point to, the curves' primvars carried to the vertices (``vertex``) and triangles (``uniform``).
+the ones Pavonine's renderer draws for such curves, its plain ribbon (the authored width, no
+barbules): each segment evaluated in its basis (linear: its two ends; cubic: a few steps), two
+vertices across each sample, two triangles per piece, wound counter-clockwise seen from the side
+the normals point to, the curves' primvars carried to the vertices (``vertex``) and triangles
+(``uniform``). The pipeline does not import the renderer (pipeline and render stand side by side,
+docs/house.md): the application hands the exporters the renderer's tessellation,
+:func:`pavonine.render.curves.ribbons.plain_ribbons`, as a :data:`Tessellate`, so every host gets
+the renderer's own vertices and there is one implementation.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+#: A ribbon ``BasisCurves`` prim → the renderer's plain ribbon surface (``topology.points``,
+#: ``topology.face_vertex_indices`` of triangles, vertex ``normals``, carried ``primvars``), or
+#: None when the prim is not ribbons: :func:`pavonine.render.curves.ribbons.plain_ribbons`.
+Tessellate = Callable[[Any], Any]
 
 
 @dataclass
@@ -26,25 +35,11 @@ class RibbonMesh:
     triangles: np.ndarray  # (m, 3) uint32
 
 
-def ribbon_prim_surface(prim):
-    """The renderer's plain ribbon surface (:class:`pavonine.render.mesh.Surface`) of a
-    ``BasisCurves`` prim with authored ``normals`` at the default time; None for curves that
-    are not ribbons (tubes) or have no renderable curve."""
-    from pxr import Usd
-
-    from pavonine.render.curves.ribbons import has_normals, ribbon_surface
-    from pavonine.render.diagnostics import Diagnostics
-
-    if not has_normals(prim):
-        return None
-    return ribbon_surface(prim, Usd.TimeCode.Default(), Diagnostics(), barbules=False)
-
-
-def ribbon_prim_mesh(prim) -> tuple[RibbonMesh, np.ndarray | None] | None:
+def ribbon_prim_mesh(prim, tessellate: Tessellate) -> tuple[RibbonMesh, np.ndarray | None] | None:
     """The ribbon mesh of a ``BasisCurves`` prim with authored ``normals`` (and its per-vertex
-    ``displayColor``, linear, or None); None for curves that are not ribbons
-    (:func:`ribbon_prim_surface`)."""
-    surface = ribbon_prim_surface(prim)
+    ``displayColor``, linear, or None), as ``tessellate`` draws it; None for curves that are not
+    ribbons (tubes) or have no renderable curve."""
+    surface = tessellate(prim)
     if surface is None:
         return None
     mesh = RibbonMesh(

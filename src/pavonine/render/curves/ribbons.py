@@ -64,7 +64,7 @@ def ribbon_surface(
     """The curves as ribbon quads (object space); ``None`` (warned) when they cannot be ribbons:
     no renderable curve, or normals that do not fit their interpolation (rendered as tubes).
     ``barbules=False``: a feather's barbs too as the plain flat ribbon of their authored width
-    (USD's own ribbon; the portable export, :mod:`pavonine.pipeline.export.portable_usd`)."""
+    (USD's own ribbon: :func:`plain_ribbons`)."""
     topology = read_curves(prim, time, diag)
     if topology is None:
         return None
@@ -95,6 +95,17 @@ def ribbon_surface(
     # across the barb counter-clockwise seen from N′ is −S: P − S·w/2 at +w/2
     across = (half * np.array([[1.0, -1.0]])).ravel()
     return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag, across)
+
+
+def plain_ribbons(prim: Usd.Prim) -> Surface | None:
+    """The plain ribbon surface of ``BasisCurves`` with authored ``normals`` at the default time:
+    the authored width, no barbules, whatever the curves carry (USD's own ribbon, what the
+    exports write for hosts without ribbons, handed to them by the application:
+    :mod:`pavonine.pipeline.export.ribbons`); ``None`` for curves that are not ribbons or have
+    no renderable curve."""
+    if not has_normals(prim):
+        return None
+    return ribbon_surface(prim, Usd.TimeCode.Default(), Diagnostics(), barbules=False)
 
 
 #: Barbs' ``primvars:pavonine_barbules``: their barbules' reach past the authored edge (share of
