@@ -63,16 +63,18 @@ def _bpy_python(given: str | None) -> str:
     return python
 
 
-def _scene(root: Path, folder: Path, name: str, geometry: str | None = None) -> Path:
-    """The shipped sun scene on ``root`` (its ``geometry`` variant selected), in ``folder``."""
-    from gltf_browser import SCENE
+def _scene(root: Path, folder: Path, name: str, geometry: str | None, tilt: float) -> Path:
+    """The shipped sun scene on ``root`` (its ``geometry`` variant selected), its camera turned
+    by ``tilt`` degrees about the world's +Y (gltf_browser.tilted_scene), as ``folder/name``."""
+    from gltf_browser import tilted_scene
 
-    reference = "prepend references = @../feathers/eye_feather/eye_feather.usd@"
-    text = SCENE.read_text()
-    assert reference in text
-    select = f'\n        variants = {{ string geometry = "{geometry}" }}' if geometry else ""
-    text = text.replace(reference, f"prepend references = @{root}@{select}")
-    path = folder / f"{name}.usda"
+    written = tilted_scene(root, tilt, folder)
+    text = written.read_text()
+    if geometry:
+        select = f'@{root}@\n        variants = {{ string geometry = "{geometry}" }}'
+        text = text.replace(f"@{root}@", select)
+    written.unlink()
+    path = folder / f"{name}_{tilt:+.0f}.usda"
     path.write_text(text)
     return path
 
@@ -120,12 +122,8 @@ def _importer(report: dict) -> bool:
 
 def main() -> None:
     from click.testing import CliRunner
-    from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
-    from test_gltf_threejs import RESOLUTION
 
     from pavonine.apps.cli import cli
-    from pavonine.render.api import render_stage
-    from pavonine.render.imageio import read_exr, write_png
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--asset", default=str(EYE), help="asset folder [the shipped eye]")
@@ -135,6 +133,9 @@ def main() -> None:
     parser.add_argument("--bpy-python", help="python of the venv with bpy")
     parser.add_argument("--cycles-samples", type=int, default=64)
     parser.add_argument("--spp", type=int, default=32, help="Pavonine's samples per pixel")
+    parser.add_argument(
+        "--tilts", default="0,60", help="camera turns about +Y, degrees, comma-separated"
+    )
     args = parser.parse_args()
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -154,10 +155,28 @@ def main() -> None:
         f"pavonine export: {portable.name}, {exported['meshes'][0]['triangles']:,} ribbon "
         f"triangles, {exported['bytes']:,} bytes, {time.perf_counter() - started:.1f} s"
     )
+    bound = True
+    for k, tilt in enumerate(float(t) for t in args.tilts.split(",")):
+        bound &= _view(tilt, root, portable, out, bpy_python, args, first=k == 0)
+    print(f"barbs bound to their displayColor in Blender: {'yes' if bound else 'NO'}")
+    if not bound:
+        raise SystemExit(1)
+
+
+def _view(tilt: float, root: Path, portable: Path, out: Path, bpy_python: str, args, first: bool):
+    """One view, the scene camera turned by ``tilt``: Blender on the portable layer and on the
+    asset's own curves, Pavonine on both, compared per zone; True when Blender bound the barbs'
+    colour."""
+    from ocellus_zones import ZONE_NAMES, zone_delta_e, zone_masks
+    from test_gltf_threejs import RESOLUTION
+
+    from pavonine.render.api import render_stage
+    from pavonine.render.imageio import read_exr, write_png
+
     scenes = {
-        "portable": _scene(portable, out, "scene_portable"),
-        "native": _scene(root, out, "scene_native", "barbs"),
-        "sheet": _scene(root, out, "scene_sheet", "sheet"),
+        "portable": _scene(portable, out, "scene_portable", None, tilt),
+        "native": _scene(root, out, "scene_native", "barbs", tilt),
+        "sheet": _scene(root, out, "scene_sheet", "sheet", tilt),
     }
     width, height = RESOLUTION
     job = {
@@ -167,15 +186,18 @@ def main() -> None:
         "threads": 2,
         "sky": SKY,
     }
+    print(f"\n=== camera turned {tilt:+.0f}° about +Y")
     started = time.perf_counter()
-    report = _child(bpy_python, job, out / "blender")
+    report = _child(bpy_python, job, out / f"blender_{tilt:+.0f}")
     print(f"Cycles {args.cycles_samples} spp: {time.perf_counter() - started:.0f} s (with import)")
-    bound = _importer(report)
+    bound = _importer(report) if first else True
     images = {"cycles": read_exr(report["cycles"])[0]}
     # what Blender makes of the asset's own barbs level (the curves), for comparison
-    before = _child(bpy_python, {**job, "usd": str(scenes["native"])}, out / "blender_native")
-    print("\nThe same with the asset's own barbs (the curves, no portable export):")
-    _importer(before)
+    job["usd"] = str(scenes["native"])
+    before = _child(bpy_python, job, out / f"blender_curves_{tilt:+.0f}")
+    if first:
+        print("\nThe same with the asset's own barbs (the curves, no portable export):")
+        _importer(before)
     images["cycles_curves"] = read_exr(before["cycles"])[0]
     for name in ("portable", "native"):
         started = time.perf_counter()
@@ -211,10 +233,10 @@ def main() -> None:
     for mask in masks.values():
         feather |= mask
     for name in ("cycles", "cycles_curves"):
-        alpha = images[name][..., 3] >= 0.5
+        alpha = images[name][..., 3]
         print(
-            f"Inside the zones ({int(feather.sum())} px) {name} draws the feather on "
-            f"{alpha[feather].mean():.1%} of them (alpha ≥ 0.5)"
+            f"Inside the zones ({int(feather.sum())} px) {name}: mean alpha "
+            f"{alpha[feather].mean():.3f}, {np.mean(alpha[feather] >= 0.5):.1%} of them ≥ 0.5"
         )
     sky = np.array(SKY)
     over = {
@@ -222,15 +244,13 @@ def main() -> None:
         for k in ("cycles", "cycles_curves")
     }
     panels = [images["portable"], over["cycles"], over["cycles_curves"], images["native"]]
-    png = out / "portable_cycles_native.png"
+    png = out / f"portable_cycles_native_{tilt:+.0f}.png"
     write_png(png, np.concatenate(panels, axis=1))
     print(
         "side by side (Pavonine portable | Cycles portable | Cycles on the asset's curves | "
         f"Pavonine native barbs): {png}"
     )
-    print(f"barbs bound to their displayColor in Blender: {'yes' if bound else 'NO'}")
-    if not bound:
-        raise SystemExit(1)
+    return bound
 
 
 if __name__ == "__main__":
