@@ -52,7 +52,13 @@ def _mesh(out: Path) -> UsdGeom.Mesh:
 
 
 def test_the_barbs_become_the_renderers_own_ribbon_vertices(portable):
+    import jsonschema
+
+    from pavonine.apps.cli.export import JSON_SCHEMA
+
     out, report, curves = portable
+    jsonschema.validate(report, JSON_SCHEMA)  # the documented --json report (docs/cli.md)
+    assert report["geometry"] == "barbs" and report["lod"] == "high"
     assert [m["path"] for m in report["meshes"]] == [BARBS]
     mesh = _mesh(out)
     assert mesh.GetPrim().GetTypeName() == "Mesh"
