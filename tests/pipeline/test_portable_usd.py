@@ -153,6 +153,29 @@ def test_the_layer_is_valid_whole_and_resolves_its_files(portable):
     assert layer is not None and report["bytes"] == out.stat().st_size
 
 
+def test_a_train_with_a_barbs_prototype_exports_its_ribbons(tmp_path):
+    """The shipped train (a PointInstancer of the feather assets) with its eye prototype at the
+    barbs level: the prototype's curves become the ribbon mesh, instanced as before."""
+    train = REPO / "assets" / "assemblies" / "peacock_train" / "peacock_train.usda"
+    shot = tmp_path / "train_barbs.usda"
+    layer = Sdf.Layer.CreateNew(str(shot))
+    layer.subLayerPaths.append(str(train))
+    layer.defaultPrim = "peacock_train"
+    eye = Sdf.CreatePrimInLayer(layer, "/peacock_train/Feathers/Prototypes/eye")
+    eye.variantSelections["geometry"] = "barbs"
+    layer.Save()
+    out = tmp_path / "train.usdc"
+    result = run("export", shot, "-o", out, "--json", "-")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    barbs = "/peacock_train/Feathers/Prototypes/eye/Geom/Barbs"
+    assert [m["path"] for m in report["meshes"]] == [barbs]
+    stage = Usd.Stage.Open(str(out))
+    assert stage.GetPrimAtPath(barbs).GetTypeName() == "Mesh"
+    instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/peacock_train/Feathers"))
+    assert instancer and len(instancer.GetProtoIndicesAttr().Get()) > 0
+
+
 @pytest.mark.parametrize(
     "args, what",
     [
