@@ -8,9 +8,11 @@ The shipped eye feather (or ``--asset``) is exported as a portable USD; the ship
 Blender imports that scene file itself: camera, sun (``light_intensity_scale`` 0.25 undoes the
 importer's ×4), the barbs and the rachis. Blender 5.3's importer makes no world of the scene's
 untextured ``DomeLight``: the child sets the same uniform sky by hand (and says so). Cycles
-renders it at the test size (128×192, ``--cycles-samples``), Pavonine renders the same scene
-(``--spp``), and the scene on the asset's own ``barbs`` level (the curves with their barbules and
-the feather BSDF: what the portable preview stands in for).
+renders it at the test size (128×192, ``--cycles-samples``, a one-pixel box filter as Pavonine's),
+Pavonine renders the same scene (``--spp``), and the scene on the asset's own ``barbs`` level (the
+curves with their barbules and the feather BSDF: what the portable preview stands in for). Each
+view of ``--tilts`` (default face-on and the camera turned 60° about +Y: flat ribbons
+foreshorten, round tubes do not) is rendered so.
 
 Printed: what the importer made of the barbs (object type, material, what feeds the Principled
 BSDF's Base Color: it must be the ``displayColor`` attribute, not the default grey), of the
@@ -163,7 +165,15 @@ def main() -> None:
         raise SystemExit(1)
 
 
-def _view(tilt: float, root: Path, portable: Path, out: Path, bpy_python: str, args, first: bool):
+def _view(
+    tilt: float,
+    root: Path,
+    portable: Path,
+    out: Path,
+    bpy_python: str,
+    args: argparse.Namespace,
+    first: bool,
+) -> bool:
     """One view, the scene camera turned by ``tilt``: Blender on the portable layer and on the
     asset's own curves, Pavonine on both, compared per zone; True when Blender bound the barbs'
     colour."""
