@@ -14,7 +14,8 @@ from click.testing import CliRunner
 from test_gltf import _validator
 
 from pavonine.apps.cli import cli
-from pavonine.pipeline.export.ribbons import ribbon_mesh
+from pavonine.pipeline.export.ribbons import ribbon_prim_mesh
+from pavonine.render.curves.ribbons import plain_ribbons
 
 
 def run(*args):
@@ -22,18 +23,27 @@ def run(*args):
 
 
 def test_a_ribbon_spans_its_width_across_its_normal_facing_it():
-    points = np.array([[0.0, 0, 0], [0, 1, 0], [0, 2, 0], [5, 0, 0], [5, 1, 0]])
-    normals = np.tile([0.0, 0.0, 1.0], (5, 1))
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateInMemory()
+    curves = UsdGeom.BasisCurves.Define(stage, "/Ribbons")
+    curves.CreateTypeAttr("linear")
+    curves.CreateCurveVertexCountsAttr([3, 2])
+    curves.CreatePointsAttr([(0.0, 0, 0), (0, 1, 0), (0, 2, 0), (5, 0, 0), (5, 1, 0)])
+    curves.CreateNormalsAttr([(0.0, 0.0, 1.0)] * 5)
+    curves.SetNormalsInterpolation("vertex")
     widths = np.array([0.2, 0.4, 0.0, 1.0, 1.0])
-    mesh = ribbon_mesh(points, normals, widths, np.array([3, 2]))
-    assert len(mesh.triangles) == 2 * (2 + 1)  # two per segment
-    edge = mesh.points[1::2] - mesh.points[0::2]
-    assert np.allclose(np.linalg.norm(edge, axis=1), widths)
-    assert np.allclose(edge[:, 1:], 0.0)  # across the curve (+x for a curve along +y)
+    curves.CreateWidthsAttr(widths.tolist())
+    curves.SetWidthsInterpolation("vertex")
+    mesh, colours = ribbon_prim_mesh(curves.GetPrim(), plain_ribbons)
+    assert colours is None and len(mesh.triangles) == 2 * (2 + 1)  # two per segment
+    edge = mesh.points[1::2] - mesh.points[0::2]  # across each sample: a segment's two ends
+    expected = np.concatenate([widths[[0, 1, 3]], widths[[1, 2, 4]]])
+    assert np.allclose(np.sort(np.linalg.norm(edge, axis=1)), np.sort(expected))
+    assert np.allclose(edge[:, 1:], 0.0)  # across the curve (±x for a curve along +y)
     a, b, c = (mesh.points[mesh.triangles[:, k]] for k in range(3))
     facing = np.cross(b - a, c - a)[:, 2]
     assert np.all(facing[np.abs(facing) > 1e-12] > 0.0)  # counter-clockwise seen from +z
-    assert np.array_equal(mesh.source, np.repeat(np.arange(5), 2))
 
 
 @pytest.fixture(scope="module")

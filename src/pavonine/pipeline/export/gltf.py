@@ -46,6 +46,8 @@ from pavonine.pipeline.bake.asset import bound_meshes, mesh_data, root_layer_pat
 from pavonine.pipeline.bake.textures import THICKNESS_MAX_NM
 from pavonine.pipeline.export.iridescence import SUBSTRATE_F0_MAX
 from pavonine.pipeline.export.look import fitted_look
+from pavonine.pipeline.export.ribbons import Tessellate
+from pavonine.pipeline.export.selection import open_selected
 
 IRIDESCENCE = "KHR_materials_iridescence"
 SPECULAR = "KHR_materials_specular"
@@ -295,27 +297,20 @@ def _split_vertices(mesh) -> tuple[np.ndarray, np.ndarray]:
     return pairs, triangles.reshape(-1).astype(np.uint32)
 
 
-def _select_geometry(stage, default, geometry: str, root) -> None:
-    """Select ``geometry`` in the asset's ``geometry`` variant set (session layer)."""
-    from pxr import Usd
-
-    variants = default.GetVariantSet("geometry")
-    if geometry not in variants.GetVariantNames():
-        known = ", ".join(variants.GetVariantNames()) or "none"
-        raise InputError("--geometry", f"{root} has no geometry {geometry!r} (variants: {known})")
-    with Usd.EditContext(stage, stage.GetSessionLayer()):
-        variants.SetVariantSelection(geometry)
-
-
-def _export_ribbons(out, prim, cache, default, scale, materials, report, children) -> None:
-    """One glTF mesh of a ribbon ``BasisCurves`` prim: its triangles, normals and displayColor
-    as ``COLOR_0``, with a vertex-colour material from its preview-purpose binding."""
+def _export_ribbons(
+    out, prim, cache, default, scale, materials, report, children, tessellate
+) -> None:
+    """One glTF mesh of a ribbon ``BasisCurves`` prim: its triangles as ``tessellate`` draws
+    them, normals and displayColor as ``COLOR_0``, with a vertex-colour material from its
+    preview-purpose binding."""
     from pxr import UsdGeom, UsdShade
 
     from pavonine.pipeline.export.ribbons import ribbon_prim_mesh, vertex_colour_material
 
     purpose = UsdGeom.Imageable(prim).ComputePurpose()
-    found = ribbon_prim_mesh(prim)
+    if tessellate is None:
+        raise InputError(str(prim.GetPath()), "ribbon curves need the renderer's tessellation")
+    found = ribbon_prim_mesh(prim, tessellate)
     if found is None or purpose not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
         return
     ribbons, colours = found
@@ -396,35 +391,23 @@ def export_gltf(
     lod: str | None = None,
     geometry: str | None = None,
     eye: tuple[float, float, float] | None = None,
+    tessellate: Tessellate | None = None,
 ):
     """Write ``asset``'s meshes of ``lod`` (default: the asset's selection) to ``output``;
-    ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes,
-    :mod:`pavonine.pipeline.export.ribbons`); ``eye`` (the asset's space and units) is the viewer
-    the feather's look is fitted for (default: where ``pavonine view`` frames the asset)."""
-    from pxr import Tf, Usd, UsdGeom, UsdShade
-
-    import pavonine  # noqa: F401  (registers the schema)
+    ``geometry`` chooses the asset's ``geometry`` variant (``barbs``: the barbs as ribbon meshes
+    drawn by ``tessellate``, the renderer's, :mod:`pavonine.pipeline.export.ribbons`); ``eye``
+    (the asset's space and units) is the viewer the feather's look is fitted for (default: where
+    ``pavonine view`` frames the asset)."""
+    from pxr import Usd, UsdGeom, UsdShade
 
     root = root_layer_path(asset)
     output = Path(output)
     if output.suffix.lower() != ".glb":
-        raise InputError(str(output), "the export must be a .glb file")
-    try:
-        stage = Usd.Stage.Open(str(root))
-    except Tf.ErrorException as exc:
-        raise InputError(str(root), f"cannot open USD stage: {str(exc).strip()}") from None
-    default = stage.GetDefaultPrim()
-    if not default:
-        raise InputError(str(root), "no defaultPrim")
+        raise InputError(
+            str(output), "the export must be a .glb file or a USD layer (.usd, .usdc, .usda)"
+        )
+    stage, default = open_selected(root, lod, geometry)
     variants = default.GetVariantSet("lod")
-    if lod is not None:
-        if lod not in variants.GetVariantNames():
-            known = ", ".join(variants.GetVariantNames()) or "none"
-            raise InputError("--lod", f"{root} has no lod {lod!r} (variants: {known})")
-        with Usd.EditContext(stage, stage.GetSessionLayer()):
-            variants.SetVariantSelection(lod)
-    if geometry is not None:
-        _select_geometry(stage, default, geometry, root)
     if UsdGeom.GetStageUpAxis(stage) != UsdGeom.Tokens.y:
         raise InputError(str(root), "only +Y-up assets are exported (glTF is +Y up)")
     scale = UsdGeom.GetStageMetersPerUnit(stage)
@@ -438,7 +421,9 @@ def export_gltf(
     children = []
     for prim in Usd.PrimRange(default):
         if prim.IsA(UsdGeom.BasisCurves):
-            _export_ribbons(out, prim, cache, default, scale, materials, report, children)
+            _export_ribbons(
+                out, prim, cache, default, scale, materials, report, children, tessellate
+            )
             continue
         if not prim.IsA(UsdGeom.Mesh):
             continue

@@ -1,90 +1,56 @@
-"""Ribbon ``BasisCurves`` as triangle meshes, for formats with no curves (glTF).
+"""Ribbon ``BasisCurves`` as triangle meshes, for hosts with no ribbons (glTF, the portable USD).
 
 USD draws a curve with authored ``normals`` as a ribbon facing them (UsdGeom, "Tubes and
-Ribbons"): at each vertex the ribbon spans ``width`` across ``normal × tangent``. A linear
-curve of ``k`` vertices becomes ``2k`` vertices (one on each edge) and ``2(k − 1)`` triangles,
-wound counter-clockwise seen from the side the normals point to; vertex data (the
-``displayColor``) are repeated on both edges.
+Ribbons"): at each point the ribbon spans ``width`` across ``normal × tangent``. The triangles are
+the ones Pavonine's renderer draws for such curves, its plain ribbon (the authored width, no
+barbules): each segment evaluated in its basis (linear: its two ends; cubic: a few steps), two
+vertices across each sample, two triangles per piece, wound counter-clockwise seen from the side
+the normals point to, the curves' primvars carried to the vertices (``vertex``) and triangles
+(``uniform``). The pipeline does not import the renderer (pipeline and render stand side by side,
+docs/house.md): the application hands the exporters the renderer's tessellation,
+:func:`pavonine.render.curves.ribbons.plain_ribbons`, as a :data:`Tessellate`, so every host gets
+the renderer's own vertices and there is one implementation.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from pavonine.pipeline.convert.barb_curves import polyline_tangents
+#: A ribbon ``BasisCurves`` prim → the renderer's plain ribbon surface (``topology.points``,
+#: ``topology.face_vertex_indices`` of triangles, vertex ``normals``, carried ``primvars``), or
+#: None when the prim is not ribbons: :func:`pavonine.render.curves.ribbons.plain_ribbons`.
+Tessellate = Callable[[Any], Any]
 
 
 @dataclass
 class RibbonMesh:
-    """Triangles of ribbons: ``source[i]`` is the curve vertex mesh vertex ``i`` came from."""
+    """Triangles of ribbons, in the curves' object space."""
 
-    points: np.ndarray  # (2n, 3)
-    normals: np.ndarray  # (2n, 3)
+    points: np.ndarray  # (n, 3)
+    normals: np.ndarray  # (n, 3) per vertex: the ribbon's normal made perpendicular to the curve
     triangles: np.ndarray  # (m, 3) uint32
-    source: np.ndarray  # (2n,)
 
 
-def _unit(vectors: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(vectors, axis=1, keepdims=True)
-    return vectors / np.where(norm > 1e-20, norm, 1.0)
-
-
-def ribbon_mesh(
-    points: np.ndarray, normals: np.ndarray, widths: np.ndarray, counts: np.ndarray
-) -> RibbonMesh:
-    """The triangles of linear ribbons (module docstring); ``normals`` and ``widths`` per
-    vertex."""
-    points = np.asarray(points, dtype=np.float64)
-    counts = np.asarray(counts, dtype=np.int64)
-    normals = _unit(np.asarray(normals, dtype=np.float64))
-    tangent = polyline_tangents(points, counts)
-    side = _unit(np.cross(normals, tangent))
-    half = 0.5 * np.asarray(widths, dtype=np.float64)[:, None] * side
-    n = len(points)
-    mesh_points = np.empty((2 * n, 3))
-    mesh_points[0::2] = points - half
-    mesh_points[1::2] = points + half
-    last = np.zeros(n, dtype=bool)
-    last[np.cumsum(counts) - 1] = True
-    a = np.nonzero(~last)[0]  # each segment from vertex a to a + 1
-    left, right = 2 * a, 2 * a + 1
-    triangles = np.concatenate(
-        [np.stack([left, left + 2, right], 1), np.stack([right, left + 2, right + 2], 1)]
-    )
-    return RibbonMesh(
-        mesh_points,
-        np.repeat(normals, 2, axis=0),
-        triangles.astype(np.uint32),
-        np.repeat(np.arange(n), 2),
-    )
-
-
-def ribbon_prim_mesh(prim) -> tuple[RibbonMesh, np.ndarray | None] | None:
+def ribbon_prim_mesh(prim, tessellate: Tessellate) -> tuple[RibbonMesh, np.ndarray | None] | None:
     """The ribbon mesh of a ``BasisCurves`` prim with authored ``normals`` (and its per-vertex
-    ``displayColor``, linear, or None); None for curves that are not ribbons (tubes) or not
-    linear (this exporter tessellates polylines only)."""
-    from pxr import UsdGeom
-
-    curves = UsdGeom.BasisCurves(prim)
-    normals = curves.GetNormalsAttr().Get()
-    if not normals or curves.GetTypeAttr().Get() != UsdGeom.Tokens.linear:
+    ``displayColor``, linear, or None), as ``tessellate`` draws it; None for curves that are not
+    ribbons (tubes) or have no renderable curve."""
+    surface = tessellate(prim)
+    if surface is None:
         return None
-    points = np.array(curves.GetPointsAttr().Get(), dtype=np.float64)
-    counts = np.array(curves.GetCurveVertexCountsAttr().Get(), dtype=np.int64)
-    widths = np.array(curves.GetWidthsAttr().Get() or [], dtype=np.float64)
-    if len(widths) != len(points):
-        widths = np.full(len(points), widths[0] if len(widths) else 1.0)
-    normals = np.array(normals, dtype=np.float64)
-    if len(normals) != len(points):
-        normals = np.repeat(normals[:1], len(points), axis=0)
-    mesh = ribbon_mesh(points, normals, widths, counts)
-    colour = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
-    values = np.array(colour.ComputeFlattened(), dtype=np.float64) if colour else None
-    if values is None or len(values) != len(points):
+    mesh = RibbonMesh(
+        surface.topology.points,
+        surface.normals.values,
+        surface.topology.face_vertex_indices.reshape(-1, 3).astype(np.uint32),
+    )
+    colour = surface.primvars.get("displayColor")
+    if colour is None or colour.interpolation != "vertex":
         return mesh, None
-    return mesh, values[mesh.source]
+    return mesh, np.asarray(colour.values, dtype=np.float64)
 
 
 def vertex_colour_material(out, material, name: str) -> int:

@@ -55,10 +55,16 @@ def has_normals(prim: Usd.Prim) -> bool:
 
 
 def ribbon_surface(
-    prim: Usd.Prim, time: Usd.TimeCode, diag: Diagnostics, steps: int = STEPS
+    prim: Usd.Prim,
+    time: Usd.TimeCode,
+    diag: Diagnostics,
+    steps: int = STEPS,
+    barbules: bool = True,
 ) -> Surface | None:
     """The curves as ribbon quads (object space); ``None`` (warned) when they cannot be ribbons:
-    no renderable curve, or normals that do not fit their interpolation (rendered as tubes)."""
+    no renderable curve, or normals that do not fit their interpolation (rendered as tubes).
+    ``barbules=False``: a feather's barbs too as the plain flat ribbon of their authored width
+    (USD's own ribbon: :func:`plain_ribbons`)."""
     topology = read_curves(prim, time, diag)
     if topology is None:
         return None
@@ -77,7 +83,9 @@ def ribbon_surface(
             "the curve, or no curve direction; the ribbon narrows to nothing there",
         )
     half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
-    if _carries_barbules(prim):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
+    if barbules and _carries_barbules(
+        prim
+    ):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
         reach = values.get(BARBULES)
         reach = np.zeros_like(half) if reach is None else np.clip(reach[:, :1], 0.0, MAX_REACH)
         return _barb_surface(prim, samples, values["P"], normal, side, half, reach, diag)
@@ -87,6 +95,17 @@ def ribbon_surface(
     # across the barb counter-clockwise seen from N′ is −S: P − S·w/2 at +w/2
     across = (half * np.array([[1.0, -1.0]])).ravel()
     return strip_surface(prim, samples, points, quads, np.repeat(normal, 2, 0), diag, across)
+
+
+def plain_ribbons(prim: Usd.Prim) -> Surface | None:
+    """The plain ribbon surface of ``BasisCurves`` with authored ``normals`` at the default time:
+    the authored width, no barbules, whatever the curves carry (USD's own ribbon, what the
+    exports write for hosts without ribbons, handed to them by the application:
+    :mod:`pavonine.pipeline.export.ribbons`); ``None`` for curves that are not ribbons or have
+    no renderable curve."""
+    if not has_normals(prim):
+        return None
+    return ribbon_surface(prim, Usd.TimeCode.Default(), Diagnostics(), barbules=False)
 
 
 #: Barbs' ``primvars:pavonine_barbules``: their barbules' reach past the authored edge (share of
