@@ -83,9 +83,8 @@ def ribbon_surface(
             "the curve, or no curve direction; the ribbon narrows to nothing there",
         )
     half = np.where(bad, 0.0, values["widths"][:, 0] / 2.0)[:, None]
-    if barbules and _carries_barbules(
-        prim
-    ):  # a feather's barbs: ramus, drooping barbules (barbule_pattern)
+    # A feather's barbs: ramus, drooping barbules (barbule_pattern).
+    if barbules and _carries_barbules(prim):
         reach = values.get(BARBULES)
         reach = np.zeros_like(half) if reach is None else np.clip(reach[:, :1], 0.0, MAX_REACH)
         return _barb_surface(prim, samples, values["P"], normal, side, half, reach, diag)
