@@ -690,9 +690,12 @@ def test_ctrl_c_at_any_moment_from_start_up_is_one_line_and_exit_130(tmp_path):
     had finished; never a traceback, never a USD warning swallowing the interrupt.
 
     Before Pavonine's first line runs, Python's own start-up (``site`` and the environment's
-    ``.pth`` files) owns SIGINT and fails with "Fatal Python error: init_import_site"; that
-    outcome is accepted only for a delay shorter than twice the start-up of a bare interpreter
-    with the same ``site``, measured here."""
+    ``.pth`` files) owns SIGINT and fails with "Fatal Python error: init_import_site", or
+    importlib reports the interrupt in its own frames: accepted at any delay when no frame of the
+    report is Pavonine's code past its arming lines (a loaded machine can stretch the start-up
+    past any fixed delay: CI saw it at 0.5 s). A silent death by SIGINT is accepted only for a
+    delay shorter than twice the start-up of a bare interpreter with the same ``site``, measured
+    here."""
     script = console_script(tmp_path)
     asset = Path(__file__).parents[2] / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
     starts = []
@@ -709,10 +712,10 @@ def test_ctrl_c_at_any_moment_from_start_up_is_one_line_and_exit_130(tmp_path):
         proc.send_signal(signal.SIGINT)
         _, stderr = proc.communicate(timeout=120)
         outcomes.append((delay, proc.returncode, stderr))
-        if delay < python_start_up and (
-            _before_pavonine_code(stderr) or (proc.returncode == -signal.SIGINT and not stderr)
-        ):
-            continue  # Python's own start-up, before any Pavonine code (or its SIGINT handler)
+        if _before_pavonine_code(stderr):
+            continue  # Python's own start-up or import machinery, before any Pavonine code
+        if delay < python_start_up and proc.returncode == -signal.SIGINT and not stderr:
+            continue  # Python's default SIGINT handler, before Pavonine's was installed
         assert "Traceback" not in stderr and "Tf_PyPostProcessModule" not in stderr, (delay, stderr)
         if proc.returncode == 0:
             continue  # finished before the interrupt
