@@ -151,18 +151,13 @@ def _shipped_melanin():
     )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 33: the painted melanin map lowers the heart's structural share, and the brown "
-    "that fills it is lighter than the violet; the fix is measured (docs/model.md) but not applied",
-)
 @pytest.mark.parametrize("source", ["painted", "shipped"])
 def test_eye_feather_keeps_the_heart_black_violet(source):
     """Each zone's colour as the BSDF mixes it, ``w R + (1 - w) ρ_melanin`` with ``w`` the zone's
-    mean melanin-map value (structural share), lobe gain 1. The shipped scene's render (128x192,
-    16 spp) reads the heart at L* 31.8 and the ring at 34.4 where this gives 30.6 and 33.2; with the
-    heart at share 1, 23.1 where this gives 19.0. Fails today: the maps lower the heart's share to
-    0.65 and the brown that replaces it is lighter than the heart's violet."""
+    mean melanin-map value (structural share), lobe gain 1. The maps keep the heart's share at 1:
+    this gives the heart 19.0 and the ring 33.2, and the shipped scene's baseline (128x192, 512 spp)
+    reads 23.3 and 34.7. Maps that lowered the heart's share to 0.65-0.66 failed it (30.6-30.8 here,
+    32.0 in the baseline): the brown that replaces the structure is lighter than the violet."""
     ocellar, melanin = _painted_melanin() if source == "painted" else _shipped_melanin()
     klass = ocellar_class(ocellar)
     brown = melanin_albedo(preset(PRESET).melanin_color, WAVELENGTHS_NM)

@@ -244,7 +244,11 @@ def test_ring_boundaries_on_the_barbs_show_no_texel_staircase(tmp_path):
     )
     assert on_vane[lo : lo + CROP, lo : lo + CROP].all()
     assert staircase > 1.5, staircase  # the metric sees the texels
-    assert rendered <= 1.0, (rendered, staircase)
+    # The largest deviation of one noisy boundary: at 32 spp it scatters by 0.11-0.14 px (sd of
+    # seeds 0-5: 0.85-1.17 px with the eye maps that lowered the heart's share, 0.79-1.19 px
+    # with today's); at 128 spp it is 1.07-1.15 px and 1.00-1.04 px (seeds 0-2). So 1.0 px sat at
+    # the metric's mean; 1.2 px passes every seed measured and stays 0.87 px below the texels.
+    assert rendered <= 1.2, (rendered, staircase)
 
 
 def _without_barbules(path: Path) -> Path:

@@ -272,11 +272,10 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     displacement = solid * np.clip(0.78 * ridge + 0.12 + 0.05 * grain + 0.05 * edge_noise, 0, 1)
     melanin = _melanin_fade(cv, solid, 0.05, 0.15, cv.noise(0.05))
     melanin = melanin * (1.0 - 0.35 * loose)
-    # The heart's barbules carry melanin rods on only part of their front (TEM in "Ultraviolet
-    # reflectance structures of peacock feathers"), so it shows less structural colour: a dark
-    # blue-violet rather than the bright violet of its layer structure alone.
-    heart = ndimage.gaussian_filter((klass == 5).astype(np.float32), 1.5 * cv.height / 1024)
-    melanin = melanin * (1.0 - 0.35 * heart)
+    # The heart keeps the full structural share, like the rings: its black-violet is the dark
+    # 443 nm band of Freyer & Stavenga's structure itself. Lowering the share there mixed in the
+    # melanin brown, which is lighter than that violet and lit the heart (docs/model.md, "The
+    # heart's lightness against Freyer & Stavenga 2020").
     # The vane around the eye is brass-green, duller than the rings: less structural colour.
     vane = ndimage.gaussian_filter((klass <= 1).astype(np.float32), 3.0 * cv.height / 1024)
     melanin = melanin * (1.0 - 0.3 * vane)
