@@ -197,17 +197,21 @@ def test_frames_after_the_first_sync_only_what_varies_and_equal_a_fresh_render(t
 
 
 def test_an_open_shutter_on_a_still_stage_moves_nothing(tmp_path):
-    """Nothing varies: the slices render the same scene (no parameters to move), the image is the
-    sharp one up to noise, and nothing is warned."""
+    """Nothing varies: one slice (nothing moves in the image: ``motion_reach``), so the image is
+    the sharp one bit for bit; with the slices asked for, they render the same scene (no
+    parameters to move), the sharp image up to noise; nothing is warned."""
     path = tmp_path / "still.usda"
     motion_stage(path, SHUTTER, samples={1.0: 0.0})
     result = render(path, spp=32)
-    assert result.metadata["time_slices"] == 4 and result.warnings == []
+    assert result.metadata["time_slices"] == 1 and result.warnings == []
     sharp_path = tmp_path / "sharp.usda"
     motion_stage(sharp_path, None, samples={1.0: 0.0})
     sharp = render(sharp_path, spp=32)
     assert (result.rgb[ROW, :, 0] > 0.1).sum() == 12
-    assert result.rgb.mean() == pytest.approx(sharp.rgb.mean(), rel=0.03)
+    np.testing.assert_array_equal(result.rgb, sharp.rgb)
+    sliced = render(path, spp=32, motion_slices=4)
+    assert sliced.metadata["time_slices"] == 4 and sliced.warnings == []
+    assert sliced.rgb.mean() == pytest.approx(sharp.rgb.mean(), rel=0.03)
 
 
 def test_frames_of_a_still_stage_reuse_the_scene(tmp_path):

@@ -28,7 +28,7 @@ from pavonine.base.backend import select_variant
 from pavonine.base.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
-from pavonine.render import displacement, instance_primvars, lights, motion, sensors
+from pavonine.render import displacement, instance_primvars, lights, motion, motion_reach, sensors
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
@@ -134,6 +134,7 @@ class RenderSession:
         options.check()
         self.stage_path, self.options = stage_path, options
         self.sync_seconds: list[float] = []
+        self.reach: float | None = None  # the last blurred image's motion (motion_reach), pixels
         self.last_sync = "full"  # or "moved": only the time-varying prims, to this frame
         self._build(options.time)
 
@@ -328,10 +329,13 @@ class RenderSession:
         """(image, variance, passes, slice times) of one product: its shutter's slices, each
         rendered where the plan moves the scene, samples split across them (:mod:`.motion`)."""
         shutter = self.shutters[index]
-        slices = motion.slice_count(shutter, spp, self.options.motion_slices, self.options.moments)
+        sensor = sensor_index(self.scene, self.sensor_ids[index], self.stage_path)
+        needed = self._slices_needed(shutter, sensor)
+        slices = motion.slice_count(
+            shutter, spp, self.options.motion_slices, self.options.moments, needed
+        )
         times = shutter.times(self.frame or 0.0, slices, seed) if shutter.blurred else [self.frame]
         counts = motion.slice_spp(spp, slices)
-        sensor = sensor_index(self.scene, self.sensor_ids[index], self.stage_path)
         total = variance_sum = None
         passes = 0
         for i, (when, count) in enumerate(zip(times, counts, strict=True)):
@@ -359,6 +363,20 @@ class RenderSession:
             self.plan.retime(self.params, self.frame, self.diag)  # back at the frame's time
         return total.astype(np.float32), variance_sum, passes, times
 
+    def _slices_needed(self, shutter: motion.Shutter, sensor: int) -> int | None:
+        """The slices the motion within the open shutter needs by default
+        (:mod:`.motion_reach`): 1 when nothing moves; ``None`` (the samples decide) when the
+        slices are asked for, or the motion cannot be followed."""
+        self.reach = None
+        if not shutter.blurred or self.options.motion_slices is not None or self.plan is None:
+            return None
+        if self.plan.static:
+            return 1
+        self.reach = motion_reach.reach_pixels(
+            self.plan, self.scene.sensors()[sensor], self.frame or 0.0, shutter.open, shutter.close
+        )
+        return motion_reach.slices_for(self.reach)
+
     def _result(self, job, image, variance, images, passes, seed, spp, times) -> RenderResult:
         width, height = job.size
         metadata = {
@@ -375,10 +393,12 @@ class RenderSession:
             "colorspace": "lin_rec709_scene",
             "versions": _versions(),
         }
-        if len(times) > 1:
-            shutter = self.shutters[self.jobs.index(job)]
+        shutter = self.shutters[self.jobs.index(job)]
+        if shutter.blurred:
             metadata["shutter"] = [shutter.open, shutter.close]
             metadata["time_slices"] = len(times)
+            if self.reach is not None:
+                metadata["motion_reach_px"] = round(self.reach, 2)
         if job.product.path:
             metadata["product"] = job.product.path
             metadata["productName"] = job.product.product_name

@@ -86,13 +86,21 @@ class Shutter:
         return [frame + self.open + (i + float(jitter[i])) * width for i in range(slices)]
 
 
-def slice_count(shutter: Shutter, spp: int, slices: int | None, moments: bool) -> int:
+def slice_count(
+    shutter: Shutter, spp: int, slices: int | None, moments: bool, needed: int | None = None
+) -> int:
     """Slices of one image: 1 for an instant, else ``slices`` (default: one per
-    :data:`MIN_SLICE_SPP` samples, at most :data:`DEFAULT_SLICES`) but no more than ``spp`` (half
+    :data:`MIN_SLICE_SPP` samples, at most :data:`DEFAULT_SLICES`, and no more than the motion
+    ``needed``: :func:`pavonine.render.motion_reach.slices_for`) but no more than ``spp`` (half
     of it with ``moments``: each slice needs two passes for a variance)."""
     if not shutter.blurred:
         return 1
-    wanted = min(DEFAULT_SLICES, -(-spp // MIN_SLICE_SPP)) if slices is None else slices
+    if slices is None:
+        wanted = min(DEFAULT_SLICES, -(-spp // MIN_SLICE_SPP))
+        if needed is not None:
+            wanted = min(wanted, needed)
+    else:
+        wanted = slices
     return max(1, min(wanted, spp // 2 if moments else spp))
 
 

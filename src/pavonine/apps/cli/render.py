@@ -159,7 +159,8 @@ JSON_SCHEMA = {
     default=None,
     metavar="N",
     help="Time slices of a frame whose camera's shutter is open (motion blur; each a render "
-    "pass of spp/N samples) [default: 16, at most --spp].",
+    "pass of spp/N samples) [default: one per pixel the moving scene travels within the "
+    "shutter, at most one per 8 spp and 16].",
 )
 @click.option(
     "--resolution",
