@@ -23,7 +23,7 @@ from pathlib import Path
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from blender_render_gltf import _upstream  # what feeds a socket, as its report says
+from blender_render_gltf import _upstream, uniform_sky  # what feeds a socket, as its report says
 
 
 def base_colour(material) -> dict:
@@ -98,13 +98,7 @@ def set_up(job: dict) -> dict:
     render.threads_mode, render.threads = "FIXED", int(job.get("threads", 2))
     scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
     if scene.world is None:
-        world = bpy.data.worlds.new("Sky")
-        scene.world = world
-        if hasattr(world, "use_nodes"):
-            world.use_nodes = True
-        background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
-        background.inputs["Color"].default_value = [*job["sky"], 1.0]
-        background.inputs["Strength"].default_value = 1.0
+        uniform_sky(scene, job["sky"])
         added["world"] = job["sky"]
     render.engine = "CYCLES"
     scene.cycles.device = "CPU"

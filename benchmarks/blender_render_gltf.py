@@ -48,6 +48,17 @@ INPUTS = (
 DEFAULT_F0 = 0.04
 
 
+def uniform_sky(scene, colour) -> None:
+    """A new world for ``scene``: a uniform background of ``colour`` (linear RGB), strength 1."""
+    world = bpy.data.worlds.new("Sky")
+    scene.world = world
+    if hasattr(world, "use_nodes"):
+        world.use_nodes = True
+    background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+    background.inputs["Color"].default_value = [*colour, 1.0]
+    background.inputs["Strength"].default_value = 1.0
+
+
 def to_blender(v) -> Vector:
     """A glTF (+Y up) vector in Blender's +Z-up frame, as the importer converts: (x, -z, y)."""
     x, y, z = v
@@ -252,13 +263,7 @@ def set_scene(job: dict) -> None:
     view.view_transform, view.look, view.exposure, view.gamma = "Standard", "None", 0.0, 1.0
     scene.display_settings.display_device = "sRGB"
 
-    world = bpy.data.worlds.new("Sky")
-    scene.world = world
-    if hasattr(world, "use_nodes"):
-        world.use_nodes = True
-    background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
-    background.inputs["Color"].default_value = [*job["sky"], 1.0]
-    background.inputs["Strength"].default_value = 1.0
+    uniform_sky(scene, job["sky"])
 
     sun = bpy.data.lights.new("Sun", "SUN")
     sun.energy = float(job["sun_irradiance"])
