@@ -39,14 +39,17 @@ def _zones(uv: np.ndarray) -> np.ndarray:
 
 
 def _glint_ratio(rgb: np.ndarray) -> float:
+    """p99.9/median luminance over the whole close-up (all feather). At glitter 1 the black-violet
+    heart is near black between its glints (29 % of the pixels under 1e-4, some exactly 0, since
+    the heart keeps its full melanin: issue 33, item 6), so no pixel is left out for being dark."""
     lum = rgb @ LUMA
-    lit = lum > 1e-4
-    assert lit.mean() > 0.95  # the close-up is all feather
-    return float(np.percentile(lum[lit], 99.9) / np.median(lum[lit]))
+    assert np.median(lum) > 1e-4  # lit feather, not a dark view
+    return float(np.percentile(lum, 99.9) / np.median(lum))
 
 
 def test_glitter_glints_and_keeps_each_zones_colour(renders):
     (smooth, uv), (glitter, _) = renders[0.0, 25.0], renders[1.0, 25.0]
+    assert (np.abs(uv[..., :2]).sum(axis=-1) > 0).mean() > 0.95  # the close-up is all feather
     ratio_smooth, ratio_glitter = _glint_ratio(smooth), _glint_ratio(glitter)
     assert ratio_glitter >= 3.0 * ratio_smooth, (ratio_glitter, ratio_smooth)
     zones = _zones(uv)
