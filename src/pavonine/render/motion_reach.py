@@ -96,7 +96,7 @@ def _moving_points(plan: Any, view: Any) -> np.ndarray:
     for prim, _, _ in plan.gprims:
         parts.append(_to_world(_local_points(view, prim), view.xforms.world(prim)))
     for prim, _ in plan.natives:
-        parts.append(_to_world(_bound_corners(view, prim, local=True), view.xforms.world(prim)))
+        parts.append(_to_world(_bound_corners(view, prim), view.xforms.world(prim)))
     for prim in _instancers(plan):
         parts.append(_instanced_points(view, prim))
     parts = [p for p in parts if p.size]
@@ -167,18 +167,17 @@ def _local_points(view: Any, prim: Usd.Prim) -> np.ndarray:
         computed = based.ComputePointsAtTime(view.time, view.base_time or view.time)
         points = np.asarray(computed if computed is not None else [], dtype=np.float64)
     else:
-        return _bound_corners(view, prim, local=True)
+        return _bound_corners(view, prim)
     points = points.reshape(-1, 3)
     if len(points) > POINTS_PER_PRIM:
         points = points[np.linspace(0, len(points) - 1, POINTS_PER_PRIM).astype(int)]
     return points
 
 
-def _bound_corners(view: Any, prim: Usd.Prim, local: bool) -> np.ndarray:
-    """The eight corners of ``prim``'s bound at the view's time (its own space with ``local``)."""
+def _bound_corners(view: Any, prim: Usd.Prim) -> np.ndarray:
+    """The eight corners of ``prim``'s bound at the view's time, in its own space."""
     cache = UsdGeom.BBoxCache(view.time, list(PURPOSES))
-    box = cache.ComputeUntransformedBound(prim) if local else cache.ComputeWorldBound(prim)
-    aligned = box.ComputeAlignedRange()
+    aligned = cache.ComputeUntransformedBound(prim).ComputeAlignedRange()
     if aligned.IsEmpty():
         return np.zeros((0, 3))
     lo, hi = np.array(aligned.GetMin()), np.array(aligned.GetMax())
