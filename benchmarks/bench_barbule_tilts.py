@@ -67,13 +67,7 @@ def correlated(block_state, share: float, segment: int):
 def lobe():
     """``(within s_w, speckle p, total tan σ_along, alpha_y)`` at 550 nm (slopes)."""
     along = barbule.along_sigma(CONSTANTS.block_sigma, CONSTANTS.rod_length_nm, LAMBDA)
-    speckle, within = glitter.speckle_split(
-        1.0,
-        CONSTANTS.block_sigma,
-        along,
-        barbule.diffraction_sigma(CONSTANTS.rod_length_nm, LAMBDA),
-        barbule.diffraction_sigma(CONSTANTS.block_length_nm, LAMBDA),
-    )
+    speckle, within = glitter.grain_split(CONSTANTS, 1.0, along, LAMBDA)
     alpha_y = barbule.SQRT2 * math.tan(CONSTANTS.crescent_sigma)
     return float(within), float(speckle), math.tan(along), alpha_y
 

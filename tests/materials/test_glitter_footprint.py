@@ -28,13 +28,7 @@ LAMBDA = 550.0
 def _lobe(wavelength=LAMBDA):
     """``(spread σ_μ, within s_w, total σ_t = tan σ_along, speckle)`` at ``wavelength`` (slopes)."""
     along = barbule.along_sigma(CONSTANTS.block_sigma, CONSTANTS.rod_length_nm, wavelength)
-    speckle, within = glitter.speckle_split(
-        1.0,
-        CONSTANTS.block_sigma,
-        along,
-        barbule.diffraction_sigma(CONSTANTS.rod_length_nm, wavelength),
-        barbule.diffraction_sigma(CONSTANTS.block_length_nm, wavelength),
-    )
+    speckle, within = glitter.grain_split(CONSTANTS, 1.0, along, wavelength)
     spread = math.hypot(math.tan(CONSTANTS.block_sigma), speckle)
     return spread, float(within), math.tan(along), float(speckle)
 

@@ -183,13 +183,8 @@ def structural_brdf(
     if block is None or constants.glitter == 0.0:
         d = barbule.beckmann_ndf(hx, hy, hz, alpha_x, alpha_y, ops)
     else:
-        speckle, within = glitter.speckle_split(
-            constants.glitter,
-            constants.block_sigma,
-            sigma_x,
-            barbule.diffraction_sigma(constants.rod_length_nm, wavelength_nm),
-            barbule.diffraction_sigma(constants.block_length_nm, wavelength_nm),
-            ops,
+        speckle, within = glitter.grain_split(
+            constants, constants.glitter, sigma_x, wavelength_nm, ops
         )
         if isinstance(block, glitter.Footprint):
             d = glitter.footprint_ndf(

@@ -143,6 +143,23 @@ def speckle_split(
     return ops.sqrt(speckle2), ops.sqrt(ops.maximum(within2, 1e-12))
 
 
+def grain_split(
+    constants: Any, glitter: float, along_sigma: Any, wavelength_nm: Any, ops: Any = NUMPY
+) -> tuple[Any, Any]:
+    """:func:`speckle_split` of a material's ``constants`` at ``wavelength_nm``: the rod ends'
+    envelope and one block's grain are the Fraunhofer widths of its rod and block lengths
+    (:func:`pavonine.materials.barbule.diffraction_sigma`); ``along_sigma`` the smooth lobe's
+    spread along the barbule at that wavelength (radians)."""
+    return speckle_split(
+        glitter,
+        constants.block_sigma,
+        along_sigma,
+        barbule.diffraction_sigma(constants.rod_length_nm, wavelength_nm),
+        barbule.diffraction_sigma(constants.block_length_nm, wavelength_nm),
+        ops,
+    )
+
+
 class Block(NamedTuple):
     """One block's tilt and speckle: the mean slope offset ``tilt = √g tan σ_block z`` and, per
     grain, its position deviate ``z_k`` ~ N(0, 1) and its share of the block's light ``w_k``."""

@@ -133,12 +133,8 @@ class FeatherBSDF:
                 self.constants.rod_length_nm,
                 SAMPLING_WAVELENGTH_NM,
             )
-            speckle, within = glitter.speckle_split(
-                self.glitter,
-                self.constants.block_sigma,
-                sampling_sigma,
-                barbule.diffraction_sigma(self.constants.rod_length_nm, SAMPLING_WAVELENGTH_NM),
-                barbule.diffraction_sigma(self.constants.block_length_nm, SAMPLING_WAVELENGTH_NM),
+            speckle, within = glitter.grain_split(
+                self.constants, self.glitter, sampling_sigma, SAMPLING_WAVELENGTH_NM
             )
             # A grain sits at tilt + z·speckle(λ), speckle ∝ λ: over 380–780 nm it strays
             # from its 550 nm place by up to ~0.4 z·speckle, so each grain is sampled with
