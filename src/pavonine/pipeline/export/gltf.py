@@ -32,7 +32,7 @@ from __future__ import annotations
 import logging
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -70,16 +70,7 @@ class ExportReport:
     pivot: list[float] = field(default_factory=list)
 
     def as_dict(self) -> dict:
-        return {
-            "asset": self.asset,
-            "output": self.output,
-            "lod": self.lod,
-            "meshes": self.meshes,
-            "materials": self.materials,
-            "bytes": self.bytes,
-            "eye": self.eye,
-            "pivot": self.pivot,
-        }
+        return asdict(self)
 
 
 class _Binary:

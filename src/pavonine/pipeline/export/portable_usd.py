@@ -24,7 +24,7 @@ curves: Pavonine renders the barbs with their barbules from them.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -59,15 +59,7 @@ class PortableReport:
     bytes: int = 0
 
     def as_dict(self) -> dict:
-        return {
-            "asset": self.asset,
-            "output": self.output,
-            "lod": self.lod,
-            "geometry": self.geometry,
-            "meshes": self.meshes,
-            "materials": self.materials,
-            "bytes": self.bytes,
-        }
+        return asdict(self)
 
 
 def is_portable_target(output: str | os.PathLike) -> bool:

@@ -12,7 +12,7 @@ textures with :func:`pavonine.base.asset_io.local_file`.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from pavonine.base.commit import atomic_path
@@ -30,12 +30,7 @@ class PackageReport:
     bytes: int
 
     def as_dict(self) -> dict:
-        return {
-            "asset": self.asset,
-            "output": self.output,
-            "files": self.files,
-            "bytes": self.bytes,
-        }
+        return asdict(self)
 
 
 def package_asset(asset: str | os.PathLike, output: str | os.PathLike) -> PackageReport:
