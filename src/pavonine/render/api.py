@@ -134,7 +134,6 @@ class RenderSession:
         options.check()
         self.stage_path, self.options = stage_path, options
         self.sync_seconds: list[float] = []
-        self.reach: float | None = None  # the last blurred image's motion (motion_reach), pixels
         self.last_sync = "full"  # or "moved": only the time-varying prims, to this frame
         self._build(options.time)
 
@@ -309,10 +308,14 @@ class RenderSession:
         results = []
         with _progress(self.stage_path, jobs, spp, options.progress) as advance:
             for index, job in enumerate(jobs):
-                image, variance, passes, times = self._render_job(index, job, spp, seed, advance)
+                image, variance, passes, times, reach = self._render_job(
+                    index, job, spp, seed, advance
+                )
                 images = job.plan.split(image)
                 _finish_aovs(job, images)
-                results.append(self._result(job, image, variance, images, passes, seed, spp, times))
+                results.append(
+                    self._result(job, image, variance, images, passes, seed, spp, times, reach)
+                )
         dr.sync_thread()
         for result in results:
             check_finite_image(result, self.stage_path)
@@ -326,11 +329,13 @@ class RenderSession:
         return results
 
     def _render_job(self, index: int, job: _Job, spp: int, seed: int, advance):
-        """(image, variance, passes, slice times) of one product: its shutter's slices, each
-        rendered where the plan moves the scene, samples split across them (:mod:`.motion`)."""
+        """(image, variance, passes, slice times, motion reach in pixels or None) of one product:
+        its shutter's slices, each rendered where the plan moves the scene, samples split across
+        them (:mod:`.motion`)."""
         shutter = self.shutters[index]
         sensor = sensor_index(self.scene, self.sensor_ids[index], self.stage_path)
-        needed = self._slices_needed(shutter, sensor)
+        reach = self._reach(shutter, sensor)
+        needed = motion_reach.slices_for(reach)
         slices = motion.slice_count(
             shutter, spp, self.options.motion_slices, self.options.moments, needed
         )
@@ -361,23 +366,23 @@ class RenderSession:
             passes += slice_passes
         if slices > 1 and self.frame is not None and self.params is not None:
             self.plan.retime(self.params, self.frame, self.diag)  # back at the frame's time
-        return total.astype(np.float32), variance_sum, passes, times
+        return total.astype(np.float32), variance_sum, passes, times, reach
 
-    def _slices_needed(self, shutter: motion.Shutter, sensor: int) -> int | None:
-        """The slices the motion within the open shutter needs by default
-        (:mod:`.motion_reach`): 1 when nothing moves; ``None`` (the samples decide) when the
-        slices are asked for, or the motion cannot be followed."""
-        self.reach = None
+    def _reach(self, shutter: motion.Shutter, sensor: int) -> float | None:
+        """How far the moving scene travels in the image while the shutter is open, in pixels
+        (:mod:`.motion_reach`; 0 when nothing varies), by which the slices are chosen; ``None``
+        (the samples decide) when the slices are asked for or the motion cannot be followed."""
         if not shutter.blurred or self.options.motion_slices is not None or self.plan is None:
             return None
         if self.plan.static:
-            return 1
-        self.reach = motion_reach.reach_pixels(
+            return 0.0
+        return motion_reach.reach_pixels(
             self.plan, self.scene.sensors()[sensor], self.frame or 0.0, shutter.open, shutter.close
         )
-        return motion_reach.slices_for(self.reach)
 
-    def _result(self, job, image, variance, images, passes, seed, spp, times) -> RenderResult:
+    def _result(
+        self, job, image, variance, images, passes, seed, spp, times, reach
+    ) -> RenderResult:
         width, height = job.size
         metadata = {
             "stage": os.fspath(self.stage_path),
@@ -397,8 +402,8 @@ class RenderSession:
         if shutter.blurred:
             metadata["shutter"] = [shutter.open, shutter.close]
             metadata["time_slices"] = len(times)
-            if self.reach is not None:
-                metadata["motion_reach_px"] = round(self.reach, 2)
+            if reach is not None:
+                metadata["motion_reach_px"] = round(reach, 2)
         if job.product.path:
             metadata["product"] = job.product.path
             metadata["productName"] = job.product.product_name
