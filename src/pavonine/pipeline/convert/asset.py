@@ -107,6 +107,25 @@ def _new_stage(path: Path, *, text: bool = False):
     return Usd.Stage.Open(layer)
 
 
+def author_polygons(
+    usd_mesh, points: np.ndarray, counts: np.ndarray, indices: np.ndarray, normals: np.ndarray
+) -> None:
+    """A mesh's polygons as the assets write them: float32 points, int32 face counts and
+    indices, vertex normals, ``extent``, no subdivision, double-sided."""
+    from pxr import UsdGeom, Vt
+
+    points = points.astype(np.float32)
+    usd_mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    usd_mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(counts.astype(np.int32)))
+    usd_mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices.astype(np.int32)))
+    usd_mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    usd_mesh.CreateDoubleSidedAttr(True)
+    usd_mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(normals.astype(np.float32)))
+    usd_mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    extent = np.stack([points.min(axis=0), points.max(axis=0)])
+    usd_mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(extent))
+
+
 def write_geometry_layer(path: Path, name: str, meshes: Sequence[MeshData]) -> None:
     """Write one LOD's meshes (crate) under ``/NAME/Geom``.
 
@@ -124,20 +143,8 @@ def write_geometry_layer(path: Path, name: str, meshes: Sequence[MeshData]) -> N
     for mesh in meshes:
         prim_path = f"/{name}/{GEOM}/{mesh.name}"
         usd_mesh = UsdGeom.Mesh.Define(stage, prim_path)
-        points = mesh.points.astype(np.float32)
-        usd_mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
-        usd_mesh.CreateFaceVertexCountsAttr(
-            Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, dtype=np.int32))
-        )
-        usd_mesh.CreateFaceVertexIndicesAttr(
-            Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel())
-        )
-        usd_mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-        usd_mesh.CreateDoubleSidedAttr(True)
-        usd_mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(mesh.normals.astype(np.float32)))
-        usd_mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
-        extent = np.stack([points.min(axis=0), points.max(axis=0)])
-        usd_mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(extent.astype(np.float32)))
+        counts = np.full(len(mesh.faces), 3)
+        author_polygons(usd_mesh, mesh.points, counts, mesh.faces.ravel(), mesh.normals)
         primvars = UsdGeom.PrimvarsAPI(usd_mesh)
         st = primvars.CreatePrimvar(
             "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying

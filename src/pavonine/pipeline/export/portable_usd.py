@@ -32,6 +32,7 @@ import numpy as np
 from pavonine.base.commit import atomic_path
 from pavonine.base.errors import InputError
 from pavonine.pipeline.bake.asset import root_layer_path
+from pavonine.pipeline.convert.asset import author_polygons
 from pavonine.pipeline.export.ribbons import Tessellate
 from pavonine.pipeline.export.selection import open_selected
 from pavonine.schemas.primvars import BARB_ID_PRIMVAR
@@ -123,7 +124,7 @@ def replace_with_ribbon_mesh(stage, prim, surface, materials: list[str]) -> dict
     """Replace the ribbon curves ``prim`` by ``surface`` (their ribbon, as :data:`Tessellate`
     draws it) as a mesh at the same path, bound to their preview material (its path appended to
     ``materials`` once); the report row."""
-    from pxr import Sdf, UsdGeom, UsdShade, Vt
+    from pxr import UsdGeom, UsdShade
 
     where = str(prim.GetPath())
     material = _preview_material(stage, prim)
@@ -134,17 +135,10 @@ def replace_with_ribbon_mesh(stage, prim, surface, materials: list[str]) -> dict
     spec.typeName = "Mesh"
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath(prim.GetPath()))
     topology = surface.topology
-    points = topology.points.astype(np.float32)
-    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
-    counts = topology.face_vertex_counts.astype(np.int32)
-    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(counts))
-    indices = topology.face_vertex_indices.astype(np.int32)
-    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
-    mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(surface.normals.values.astype(np.float32)))
-    mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
-    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-    mesh.CreateDoubleSidedAttr(True)
-    mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(np.stack([points.min(0), points.max(0)])))
+    counts = topology.face_vertex_counts
+    author_polygons(
+        mesh, topology.points, counts, topology.face_vertex_indices, surface.normals.values
+    )
     _carry_primvars(mesh, surface)
     mesh.GetPrim().SetDocumentation(
         "Barbs as flat ribbon triangles (pavonine export: the renderer's ribbon tessellation of "
@@ -154,8 +148,7 @@ def replace_with_ribbon_mesh(stage, prim, surface, materials: list[str]) -> dict
     key = str(material.GetPath())
     if key not in materials:
         materials.append(key)
-    assert Sdf.Path(where) == mesh.GetPath()
-    return {"path": where, "vertices": len(points), "triangles": len(counts)}
+    return {"path": where, "vertices": len(topology.points), "triangles": len(counts)}
 
 
 def _carry_primvars(mesh, surface) -> None:
