@@ -196,6 +196,29 @@ def test_frames_after_the_first_sync_only_what_varies_and_equal_a_fresh_render(t
     assert not np.array_equal(first.rgb, moved.rgb)
 
 
+def test_blurred_frames_of_a_session_move_once_a_slice_and_equal_fresh_renders(tmp_path):
+    """A blurred frame's sync is its first slice's retime (no retime to the frame's time before
+    the slices, none back after them), and its image is a fresh render's; a sharp image of the
+    same frame afterwards is moved back first and equals its fresh render too."""
+    path = tmp_path / "moving.usda"
+    motion_stage(path, SHUTTER)
+    options = RenderOptions(spp=8, seed=2, time=0.0, progress=False, motion_slices=4)
+    session = RenderSession(path, options)
+    session.render()
+    for frame in (1.0, 2.0):
+        before = session.plan.retimes
+        moved = session.render(time=frame)[0]
+        assert session.plan.retimes - before == 4  # one a slice: none to, none from the frame
+        assert moved.metadata["sync"] == "moved" and moved.metadata["sync_seconds"] > 0
+        fresh = render(path, spp=8, seed=2, time=frame, motion_slices=4)
+        assert np.array_equal(moved.rgb, fresh.rgb), frame
+    session.shutters = [motion.Shutter() for _ in session.shutters]  # the product made sharp
+    sharp = session.render()[0]
+    instant = tmp_path / "sharp.usda"
+    motion_stage(instant, None)
+    assert np.array_equal(sharp.rgb, render(instant, spp=8, seed=2, time=2.0).rgb)
+
+
 def test_an_open_shutter_on_a_still_stage_moves_nothing(tmp_path):
     """Nothing varies: one slice (nothing moves in the image: ``motion_reach``), so the image is
     the sharp one bit for bit; with the slices asked for, they render the same scene (no

@@ -135,6 +135,7 @@ class RenderSession:
         self.stage_path, self.options = stage_path, options
         self.sync_seconds: list[float] = []
         self.last_sync = "full"  # or "moved": only the time-varying prims, to this frame
+        self.syncing = False  # the frame's sync is the next retime (:meth:`render`)
         self._build(options.time)
 
     def _build(self, time: float | None) -> None:
@@ -299,10 +300,13 @@ class RenderSession:
                 self._build(time)
                 self.last_sync = "full"
             else:
+                # The plan moves the scene when a product is first rendered at this frame: to
+                # the frame's time, or straight to a blurred product's first slice (a retime to
+                # the frame first would be undone by it); that retime is the frame's sync.
                 self.frame = float(time)
                 self.time_code = Usd.TimeCode(time)
-                sync = self.plan.retime(self.params, self.frame, self.diag)
-                self.sync_seconds.append(sync)
+                self.sync_seconds.append(0.0)
+                self.syncing = True
                 self.last_sync = "moved"
         options, jobs = self.options, self.jobs
         results = []
@@ -345,7 +349,9 @@ class RenderSession:
         passes = 0
         for i, (when, count) in enumerate(zip(times, counts, strict=True)):
             if self.plan is not None and self.params is not None and when is not None:
-                self.plan.retime(self.params, when, self.diag, base=self.frame)
+                moved = self.plan.retime(self.params, when, self.diag, base=self.frame)
+                if self.syncing:
+                    self.sync_seconds[-1], self.syncing = moved, False
             image, variance, slice_passes = render_passes(
                 self.scene,
                 sensor,
@@ -364,8 +370,7 @@ class RenderSession:
                 part = variance * weight * weight
                 variance_sum = part if variance_sum is None else variance_sum + part
             passes += slice_passes
-        if slices > 1 and self.frame is not None and self.params is not None:
-            self.plan.retime(self.params, self.frame, self.diag)  # back at the frame's time
+        # The scene stays at the last slice's time: whatever renders next retimes it first.
         return total.astype(np.float32), variance_sum, passes, times, reach
 
     def _reach(self, shutter: motion.Shutter, sensor: int) -> float | None:
