@@ -210,7 +210,7 @@ def test_render_settings_and_product_override():
 
 
 def test_scene_ids_are_unique_and_prefixed_by_kind():
-    from pavonine.render.api import scene_objects
+    from pavonine.render.scene_ids import scene_objects
 
     shapes = {"/a/b#0": "ab", "/a__b#0": "a__b", "shapegroup_0": "group", "instance_0": "inst"}
     emitters = {"/shapegroup_0": "light at /shapegroup_0", "/a/b#0": "light", "default_sky": "sky"}
@@ -230,7 +230,7 @@ def test_prims_whose_ids_used_to_collide_all_render():
     quad(stage, "/a/b", z=0.0)
     quad(stage, "/a__b", z=1.0)
     scene, _ = sync(stage)
-    from pavonine.render.api import scene_objects
+    from pavonine.render.scene_ids import scene_objects
 
     assert len(scene_objects(scene.shapes, scene.emitters)) == 2
 

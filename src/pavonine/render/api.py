@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import gc
 import os
-import re
 import time as _time
 from dataclasses import dataclass, field
 from typing import Any
@@ -33,10 +32,21 @@ from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
 from pavonine.render.integrator_settings import DEFAULT_SPP, check_variant
-from pavonine.render.limits import RenderLimits
 from pavonine.render.options import RenderOptions, check_spp
 from pavonine.render.passes import render_passes
-from pavonine.render.settings import DEFAULT_RESOLUTION, ProductSpec, read_render_settings
+from pavonine.render.products import (
+    ProductJob,
+    check_product_size,
+    choose_products,
+    finish_aovs,
+    product_job,
+    sensor_dict,
+    sensor_index,
+    shared_sensors,
+)
+from pavonine.render.progress import SampleProgress
+from pavonine.render.scene_ids import scene_keys, scene_objects
+from pavonine.render.settings import ProductSpec, read_render_settings
 
 __all__ = [
     "RenderOptions",
@@ -68,16 +78,6 @@ class RenderResult:
     def exr_layers(self) -> list[tuple[tuple[str, ...], np.ndarray]]:
         """(channel names, H×W×C pixels) of every layer, in the product's order."""
         return [(layer.channels, self.images[layer.name]) for layer in self.layers]
-
-
-@dataclass
-class _Job:
-    product: ProductSpec
-    plan: aov_layers.AovPlan
-    size: tuple[int, int]
-    film_width: int
-    camera: str | None
-    sensor: camera_translator.Sensor
 
 
 def render_stage(
@@ -166,7 +166,9 @@ class RenderSession:
         if synced.bounds is None:
             diag.warn(str(stage_path), "the stage has no renderable geometry")
         self.jobs = jobs = [
-            _job(p, delegate, synced, (camera, framing), resolution, settings.path, time_code, diag)
+            product_job(
+                p, delegate, synced, (camera, framing), resolution, settings.path, time_code, diag
+            )
             for p in chosen
         ]
         emitters = dict(synced.emitters)
@@ -178,14 +180,14 @@ class RenderSession:
 
         scene_dict: dict[str, Any] = {"type": "scene"}
         shapes = dict(synced.shapes)
-        self.sensor_ids = sensor_ids = shared_sensors([_sensor_dict(job) for job in jobs])
+        self.sensor_ids = sensor_ids = shared_sensors([sensor_dict(job) for job in jobs])
         for index, job in enumerate(jobs):
             if sensor_ids[index] != f"sensor_{index}":
                 continue  # the same camera, film and size as an earlier product: its sensor
             if job.sensor.sensor["type"] != "irradiancemeter":
-                scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+                scene_dict[f"sensor_{index}"] = sensor_dict(job)
                 continue
-            meter = sensors.attach_meter(shapes, stage, job.camera, _sensor_dict(job), diag)
+            meter = sensors.attach_meter(shapes, stage, job.camera, sensor_dict(job), diag)
             if meter is None:  # warned: through the camera's lens instead
                 prim = synced.cameras[job.camera]
                 job.sensor = camera_translator.translate_camera(
@@ -198,7 +200,7 @@ class RenderSession:
                     Diagnostics(),  # its settings were read (and warned about) once already
                     lens_only=True,
                 )
-                scene_dict[f"sensor_{index}"] = _sensor_dict(job)
+                scene_dict[f"sensor_{index}"] = sensor_dict(job)
             else:
                 meter.set_id(f"sensor_{index}")
         keys, _ = scene_keys(shapes, emitters)
@@ -265,7 +267,7 @@ class RenderSession:
         self.sync_seconds.append(_time.perf_counter() - started)
 
     @staticmethod
-    def _camera_mover(job: _Job):
+    def _camera_mover(job: ProductJob):
         """``(prim, view, time) → to_world`` (Mitsuba layout) of the job's camera at another time."""
 
         def to_world(prim, view, time):
@@ -310,13 +312,14 @@ class RenderSession:
                 self.last_sync = "moved"
         options, jobs = self.options, self.jobs
         results = []
-        with _progress(self.stage_path, jobs, spp, options.progress) as advance:
+        sizes = [job.size for job in jobs]
+        with SampleProgress(self.stage_path, sizes, spp, options.progress) as advance:
             for index, job in enumerate(jobs):
                 image, variance, passes, times, reach = self._render_job(
                     index, job, spp, seed, advance
                 )
                 images = job.plan.split(image)
-                _finish_aovs(job, images)
+                finish_aovs(job, images)
                 results.append(
                     self._result(job, image, variance, images, passes, seed, spp, times, reach)
                 )
@@ -332,7 +335,7 @@ class RenderSession:
             result.warnings = list(self.diag.messages)
         return results
 
-    def _render_job(self, index: int, job: _Job, spp: int, seed: int, advance):
+    def _render_job(self, index: int, job: ProductJob, spp: int, seed: int, advance):
         """(image, variance, passes, slice times, motion reach in pixels or None) of one product:
         its shutter's slices, each rendered where the plan moves the scene, samples split across
         them (:mod:`.motion`)."""
@@ -423,86 +426,6 @@ class RenderSession:
         )
 
 
-def shared_sensors(sensor_dicts: list[dict]) -> list[str]:
-    """The scene id of each product's sensor: ``sensor_{index}``, or the id of the first earlier
-    product whose sensor (camera, lens, film, size) is the same.
-
-    ``mi.load_dict`` builds one object for equal dictionaries, so two products through one camera
-    at one size (a beauty and an AOV product) would find one ``sensor_0`` in the scene and no
-    ``sensor_1``; they share the sensor and render each with its own integrator instead.
-    """
-    seen: dict[str, str] = {}
-    ids = []
-    for index, entry in enumerate(sensor_dicts):
-        ids.append(seen.setdefault(_canonical(entry), f"sensor_{index}"))
-    return ids
-
-
-def sensor_index(scene, sensor_id: str, stage_path: str | os.PathLike) -> int:
-    """Index of the sensor ``sensor_id`` in the Mitsuba scene (an :class:`InputError` if Mitsuba
-    built none under that id, rather than a ``ValueError`` from deep inside)."""
-    ids = [s.id() for s in scene.sensors()]
-    if sensor_id not in ids:
-        raise InputError(
-            os.fspath(stage_path),
-            f"Mitsuba's scene has no sensor {sensor_id} (sensors: {', '.join(ids) or 'none'})",
-        )
-    return ids.index(sensor_id)
-
-
-def _canonical(value: Any) -> str:
-    """A sensor dictionary as text that is equal exactly when the dictionaries are equal (Mitsuba
-    transforms as their matrices)."""
-    if isinstance(value, dict):
-        return "{" + ",".join(f"{k}:{_canonical(value[k])}" for k in sorted(value)) + "}"
-    if isinstance(value, (list, tuple)):
-        return "[" + ",".join(_canonical(v) for v in value) + "]"
-    if hasattr(value, "matrix"):
-        return "T" + repr(np.asarray(value.matrix, dtype=np.float64).ravel().tolist())
-    return repr(value)
-
-
-def choose_products(
-    products: list[ProductSpec], wanted: list[str] | None, first_only: bool
-) -> list[ProductSpec]:
-    """The products named by ``wanted`` (prim paths, or prim names that name one product), in
-    that order; an :class:`InputError` naming one that is not there. Else all, or the first."""
-    if not wanted:
-        return products[:1] if first_only else products
-    by_path = {p.path: p for p in products if p.path}
-    by_name: dict[str, list[ProductSpec]] = {}
-    for p in by_path.values():
-        by_name.setdefault(p.path.rsplit("/", 1)[-1], []).append(p)
-    chosen = []
-    for name in wanted:
-        found = by_path.get(name)
-        if found is None and len(by_name.get(name, [])) == 1:
-            found = by_name[name][0]
-        if found is None:
-            known = ", ".join(by_path) or "none"
-            raise InputError("--product", f"no RenderProduct at {name} (products: {known})")
-        if found not in chosen:
-            chosen.append(found)
-    return chosen
-
-
-def check_product_size(
-    product: ProductSpec,
-    resolution: tuple[int, int] | None,
-    settings_path: str | None,
-    limits: RenderLimits,
-) -> None:
-    """Refuse a product whose image (or square-pixel film) is beyond ``limits.pixels``."""
-    where = "resolution" if resolution else f"{product.path or settings_path}.resolution"
-    width, height = resolution or product.resolution or DEFAULT_RESOLUTION
-    limits.check_resolution((width, height), where)
-    film_width = max(1, round(width * product.pixel_aspect))
-    if film_width != width:
-        limits.check_resolution(
-            (film_width, height), f"{product.path or settings_path}.pixelAspectRatio"
-        )
-
-
 def check_finite_image(result: RenderResult, stage_path: str | os.PathLike) -> None:
     """An :class:`InputError` if any pixel of any layer is NaN or infinite.
 
@@ -518,122 +441,6 @@ def check_finite_image(result: RenderResult, stage_path: str | os.PathLike) -> N
                 f"the render's {name} has {bad} NaN or infinite values (non-finite input the "
                 "renderer did not catch); nothing written",
             )
-
-
-def _job(
-    product: ProductSpec,
-    delegate: StageDelegate,
-    synced,
-    view: tuple[str | None, str],
-    resolution: tuple[int, int] | None,
-    settings_path: str | None,
-    time_code,
-    diag: Diagnostics,
-) -> _Job:
-    """The sensor and layers of one product (``view``: the camera asked for, and the framing of a
-    stage without one)."""
-    camera, framing = view
-    width, height = resolution or product.resolution or DEFAULT_RESOLUTION
-    film_width = max(1, round(width * product.pixel_aspect))  # Mitsuba's pixels are square
-    camera_path = camera or product.camera
-    if camera_path is not None and camera_path not in synced.cameras:
-        known = ", ".join(sorted(synced.cameras)) or "none"
-        where = "--camera" if camera else f"{product.path or settings_path}.camera"
-        raise InputError(
-            where, f"no visible camera at {camera_path} (cameras in the stage: {known})"
-        )
-    if camera_path is None and synced.cameras:
-        camera_path = sorted(synced.cameras)[0]
-    if camera_path is not None:
-        prim = synced.cameras[camera_path]
-        try:
-            sensor = camera_translator.translate_camera(
-                prim,
-                delegate.xforms.world(prim),
-                time_code,
-                (width, height),
-                product.pixel_aspect,
-                product.conform,
-                diag,
-            )
-        except ValueError as exc:
-            stack = prim.GetPrimStack()
-            layer = stack[0].layer if stack else None
-            where = f"{layer.realPath or layer.identifier}: {camera_path}" if layer else camera_path
-            raise InputError(where, str(exc).split(": ", 1)[-1]) from None
-        if product.disable_dof and sensor.sensor["type"] == "thinlens":
-            sensor.sensor["type"] = "perspective"
-            del sensor.sensor["aperture_radius"], sensor.sensor["focus_distance"]
-    else:
-        view = (framing, (width, height), (product.pixel_aspect, product.conform))
-        sensor = camera_translator.default_view(delegate.stage, delegate.time, synced, *view, diag)
-    plan = aov_layers.plan(product, diag)
-    return _Job(product, plan, (width, height), film_width, camera_path, sensor)
-
-
-def _finish_aovs(job: _Job, images: dict[str, np.ndarray]) -> None:
-    """Depth from the camera and white-balanced albedo (see :func:`aovs.finish`)."""
-    from pavonine.render.passes import pixel_aspect_resampler
-
-    cosines = None
-    if job.plan.distances:
-        cosines = aov_layers.pinhole_cosines(job.sensor.sensor, (job.film_width, job.size[1]))
-        resample = pixel_aspect_resampler(job.film_width, job.size[0])
-        if resample is not None:
-            cosines = cosines @ resample.T
-    white = aov_layers.albedo_white() if "albedo" in job.plan.aovs else None
-    near = float(job.sensor.sensor.get("near_clip", 0.0))
-    aov_layers.finish(job.plan, images, cosines, near, white)
-
-
-def _sensor_dict(job: _Job) -> dict:
-    return {
-        **job.sensor.sensor,
-        "film": {
-            "type": "hdrfilm",
-            "width": int(job.film_width),
-            "height": int(job.size[1]),
-            "pixel_format": "rgba" if job.plan.alpha else "rgb",
-            "rfilter": {"type": job.sensor.rfilter},
-        },
-        "sampler": {"type": "independent"},
-    }
-
-
-class _progress:
-    """A rich progress bar over every product's samples (on stderr; hidden when disabled)."""
-
-    def __init__(self, stage_path, jobs: list[_Job], spp: int, enabled: bool):
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        sizes = ", ".join(f"{j.size[0]}×{j.size[1]}" for j in jobs)
-        label = f"render {os.path.basename(os.fspath(stage_path))} {sizes}"
-        self.bar = Progress(
-            TextColumn(label),
-            BarColumn(),
-            TextColumn("{task.completed}/{task.total} spp"),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=Console(stderr=True),
-            disable=not enabled,
-            transient=False,
-        )
-        self.total = spp * len(jobs)
-
-    def __enter__(self):
-        self.bar.__enter__()
-        task = self.bar.add_task("render", total=self.total)
-        return lambda n: self.bar.update(task, advance=n)
-
-    def __exit__(self, *exc):
-        return self.bar.__exit__(*exc)
 
 
 def _time_label(time_code) -> Any:
@@ -664,37 +471,3 @@ def _versions() -> dict[str, str]:
         "drjit": drjit.__version__,
         "usd": ".".join(str(v) for v in Usd.GetVersion()),
     }
-
-
-def scene_objects(shapes: dict[str, Any], emitters: dict[str, Any]) -> dict[str, Any]:
-    """Shapes and emitters keyed by unique Mitsuba scene-dict ids (:func:`scene_keys`)."""
-    shape_keys, emitter_keys = scene_keys(shapes, emitters)
-    objects = {shape_keys[name]: entry for name, entry in shapes.items()}
-    objects.update({emitter_keys[name]: entry for name, entry in emitters.items()})
-    return objects
-
-
-def scene_keys(
-    shapes: dict[str, Any], emitters: dict[str, Any]
-) -> tuple[dict[str, str], dict[str, str]]:
-    """The unique Mitsuba scene-dict id of each shape name and of each emitter name.
-
-    Prim-derived names (``/a/b#0``, ``/Sun``) become ``mesh_a__b_0`` / ``light_Sun`` (Mitsuba
-    ids may not contain ``.`` or ``/``); a name that maps onto an id already taken gets a ``_N``
-    suffix, so ``/a/b`` and ``/a__b`` stay two objects. Internal ids (``shapegroup_N``,
-    ``instance_N``, ``default_sun``) are kept verbatim, since instances refer to them.
-    """
-    items = [("mesh", name) for name in shapes]
-    items += [("light", name) for name in emitters]
-    taken = {name for _, name in items if not name.startswith("/")}
-    keys: dict[str, dict[str, str]] = {"mesh": {}, "light": {}}
-    for prefix, name in items:
-        key = name
-        if name.startswith("/"):
-            base = f"{prefix}_" + re.sub(r"[^A-Za-z0-9_]", "_", name[1:].replace("/", "__"))
-            key, n = base, 1
-            while key in taken:
-                key, n = f"{base}_{n}", n + 1
-            taken.add(key)
-        keys[prefix][name] = key
-    return keys["mesh"], keys["light"]

@@ -44,7 +44,7 @@ def render_views(
     name for a later product, the camera's for a later camera, both for a later pair
     (``Tall.CamB``); only the first camera's view of a product keeps its ``productName``.
     """
-    from pavonine.render.api import choose_products
+    from pavonine.render.products import choose_products
 
     chosen = choose_products(settings.products, list(products) or None, False)
     views = []
