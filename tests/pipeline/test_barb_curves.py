@@ -10,7 +10,14 @@ import pytest
 from test_recipe import MINIMAL
 
 from pavonine.base.errors import InputError
-from pavonine.pipeline.convert.barb_curves import END_COVERAGE, build_barbs, coverage_map
+from pavonine.pipeline.convert.barb_curves import (
+    END_COVERAGE,
+    FILAMENT_SHARE,
+    build_barbs,
+    coverage_map,
+    filament_share,
+)
+from pavonine.pipeline.convert.barb_form import CLOSED_COVERAGE, LOOSE_COVERAGE
 from pavonine.pipeline.convert.barbs import barb_direction_field
 from pavonine.pipeline.convert.rachis import RachisSpec
 from pavonine.pipeline.convert.recipe import BarbOptions, parse_recipe
@@ -155,7 +162,21 @@ def test_partial_alpha_thins_and_separates_barbs_instead_of_cutting_them():
     assert np.median(lcounts) == pytest.approx(np.median(rcounts), rel=0.1)  # as long
     lw = np.median(barbs.widths[left + lcounts // 2])
     rw = np.median(barbs.widths[right + rcounts // 2])
-    assert lw / rw == pytest.approx(0.4, abs=0.05)  # covering 40 %: 60 % background between
+    # Alpha 0.4 is loose (below LOOSE_COVERAGE): free filaments, FILAMENT_SHARE of the 40 %
+    # the coverage alone gives, the rest background between them.
+    assert lw / rw == pytest.approx(0.4 * FILAMENT_SHARE, abs=0.03)
+
+
+def test_loose_barbs_thin_to_filaments_without_a_step():
+    """The width's filament share: 1 where barbs interlock, FILAMENT_SHARE where they hang loose,
+    linear between (continuous along a barb whose coverage crosses the levels)."""
+    c = np.array([0.0, 0.4, LOOSE_COVERAGE, 0.5 * (LOOSE_COVERAGE + CLOSED_COVERAGE)])
+    c = np.append(c, [CLOSED_COVERAGE, 1.0])
+    share = filament_share(c)
+    half = 0.5 * (1.0 + FILAMENT_SHARE)
+    assert np.allclose(share, [FILAMENT_SHARE] * 3 + [half, 1.0, 1.0])
+    fine = np.linspace(0.0, 1.0, 10_001)
+    assert np.max(np.abs(np.diff(filament_share(fine)))) < 1e-3  # no step
 
 
 def test_primvars_are_the_maps_at_each_vertex():

@@ -114,6 +114,26 @@ def test_the_ramus_tapers_and_stays_a_thin_line():
     assert narrow[0] == pytest.approx(bp.RAMUS_MAX_SHARE * 100.0)
 
 
+def test_the_two_sides_of_a_barb_twist_opposite_ways_with_the_twists_spread_kept():
+    """A twist at the root mirrored across the barb (``SIDE_TWIST_SHARE``): the barbules on one
+    side tilt on average by ``+√share·σ``, those on the other by ``−√share·σ`` (the lines along
+    the barbs a pixel holding many barbules shows); over both sides the tilt angles keep the
+    spread ``σ`` (so the average colour stays the smooth BSDF's)."""
+    rng = np.random.default_rng(1)
+    s = rng.uniform(0, 30_000, 200_000)
+    a = rng.uniform(-1000, 1000, 200_000)
+    point = _pattern(s, a, barb=rng.integers(0, 400, 200_000).astype(float), angle=0.0)
+    on = point.present & ~point.ramus
+    # angle 0: the barbule axis along the barb, the twist tilts the normal across it.
+    tilt = np.degrees(np.arcsin(point.tilt_across[on]))
+    side = point.side[on]
+    sigma = bp.TWIST_SIGMA_DEG
+    expected = math.sqrt(bp.SIDE_TWIST_SHARE) * sigma
+    assert np.mean(tilt[side > 0]) == pytest.approx(expected, rel=0.05)
+    assert np.mean(tilt[side < 0]) == pytest.approx(-expected, rel=0.05)
+    assert np.sqrt(np.mean(tilt**2)) == pytest.approx(sigma, rel=0.05)
+
+
 def test_the_twist_takes_its_share_of_the_crescent():
     twist, within = bp.split_crescent(15.0, 12.0)
     assert twist == 12.0 and twist**2 + within**2 == pytest.approx(15.0**2)

@@ -66,6 +66,15 @@ BARBULE_OVERLAP = 0.8
 #: paper §2.1, barbules "twisted at the root". A parameter (the paper gives no angle); taken out
 #: of the crescent's spread θ0 = 15° (:func:`split_crescent`), which keeps 6.5° within a barbule.
 TWIST_SIGMA_DEG = 13.5
+#: The share of that twist's variance that is the same for every barbule on one side of a barb
+#: and opposite on the other (``side·√share·σ``; the rest ``√(1 − share)·σ`` is each barbule's own
+#: draw): the two sides are mirror images (a fishbone), so a twist at the root of one hand tilts
+#: them opposite ways across the barb, and under a directional light the two halves of a barb
+#: differ in brightness: fine lines along the barbs, at the barb spacing, where a pixel holds
+#: many barbules. The tilts' variance is still ``σ²`` (a mixture of ``N(±√share·σ, (1 − share)σ²)``),
+#: so the barbules' average stays the smooth BSDF's to second order. A parameter (the paper gives
+#: no angle).
+SIDE_TWIST_SHARE = 0.65
 #: Ramus half width at the rachis and towards the barb's tip (µm), and the length over which it
 #: tapers (e-folding, µm). Not found in the sources searched; parameters.
 RAMUS_BASE_UM = 45.0
@@ -238,6 +247,7 @@ def barbule_pattern(
     # (Box–Muller of two hashes: a Gaussian angle).
     t = ops.select(on_ramus, a_um / ops.maximum(r, 1e-6), 0.0) * layout.ramus_roundness
     gauss = ops.sqrt(-2.0 * ops.log(u_twist1)) * ops.cos(2.0 * math.pi * u_twist2)
+    gauss = side * math.sqrt(SIDE_TWIST_SHARE) + gauss * math.sqrt(1.0 - SIDE_TWIST_SHARE)
     twist = ops.sin(gauss * (layout.twist_sigma_deg * math.pi / 180.0))
     # The twist tilts the normal across the barbule axis the BSDF uses (the angle map's, on both
     # sides: its crescent spread lies across that axis, and the twist takes its share of it),

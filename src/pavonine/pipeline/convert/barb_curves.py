@@ -44,7 +44,12 @@ from scipy.spatial import cKDTree
 from pavonine.base.map_files import sample_bilinear, sample_nearest
 from pavonine.base.map_filters import gaussian_blur
 from pavonine.materials.ocellus import smooth_class_field
-from pavonine.pipeline.convert.barb_form import FormOptions, apply_form
+from pavonine.pipeline.convert.barb_form import (
+    CLOSED_COVERAGE,
+    LOOSE_COVERAGE,
+    FormOptions,
+    apply_form,
+)
 from pavonine.pipeline.convert.barbs import sample_direction
 from pavonine.pipeline.convert.rachis import RachisSpec, rachis_radius
 from pavonine.pipeline.convert.recipe import BarbOptions
@@ -324,7 +329,7 @@ def build_barbs(
     uv = np.clip(_to_uv(xy, frame.aspect), 0.0, 1.0)
     cover = np.clip(sample_bilinear(coverage, uv), 0.0, 1.0)
     local = neighbour_spacing(xy, tangent2, barb, MAX_WIDTH_SPACINGS * spacing, rachis_barb[barb])
-    widths = local * frame.length * layout.width_share * cover
+    widths = local * frame.length * layout.width_share * cover * filament_share(cover)
     normal = frame.normal(uv)
     smooth = gaussian_blur(maps["displacement"], 0.5 * spacing * height)
     lift = displacement_cm * sample_bilinear(smooth, uv)
@@ -351,6 +356,23 @@ def build_barbs(
     along = normalise(dpdv)
     half_width = 0.5 * frame.width
     return apply_form(curves, along, rachis_barb, layout.spacing_cm, half_width, form, seed)
+
+
+#: A loose barb's ribbon (coverage below :data:`~pavonine.pipeline.convert.barb_form.
+#: LOOSE_COVERAGE`: no hooked barbules hold it to its neighbours, Dakin et al. 2016) as a share of
+#: the width its coverage gives: a free filament, so that the background shows between loose barbs
+#: in whole pixels where the sheet shows a partial alpha (issue 33: a real eye feather's lower barbs
+#: are thin filaments). A parameter, set from the hero view's measure (docs/pipeline.md, *Barbs*).
+FILAMENT_SHARE = 0.5
+
+
+def filament_share(coverage: np.ndarray) -> np.ndarray:
+    """Per vertex, the share of its width a barb keeps: 1 where its barbules interlock (coverage
+    at least ``CLOSED_COVERAGE``), :data:`FILAMENT_SHARE` where it hangs loose (at most
+    ``LOOSE_COVERAGE``), linear between (no step along a barb)."""
+    span = CLOSED_COVERAGE - LOOSE_COVERAGE
+    closed = np.clip((np.asarray(coverage, dtype=np.float64) - LOOSE_COVERAGE) / span, 0.0, 1.0)
+    return FILAMENT_SHARE + (1.0 - FILAMENT_SHARE) * closed
 
 
 #: Bisection steps placing a ring boundary along a barb segment (to 1/256 of a segment).
