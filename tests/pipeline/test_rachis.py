@@ -59,3 +59,50 @@ def test_the_shipped_eye_rachis_tapers_to_a_point():
     )
     assert near.sum() >= 8
     assert np.all(width <= allowed + 0.002)  # inside the cone (bend and float32 aside)
+
+
+def _rachis_centre_line(path: Path) -> np.ndarray:
+    """The shaft's centre line: the mean of each ring of its points (a ring's points share
+    their feather coordinate ``v``; the tip's cone, narrowing to its apex, left out)."""
+    layer = Sdf.Layer.OpenAsAnonymous(str(path))
+    rachis = layer.rootPrims[0].nameChildren["Geom"].nameChildren["Rachis"]
+    points = np.array(rachis.attributes["points"].default, dtype=float)
+    v = np.round(np.array(rachis.attributes["primvars:pavonine_featherUV"].default)[:, 1], 6)
+    rings = [points[v == level] for level in np.unique(v)]
+    centre = np.array([ring.mean(axis=0) for ring in rings if len(ring) >= 8])
+    return centre[np.argsort(centre[:, 1])]
+
+
+def test_the_shipped_eye_rachis_is_arched_and_its_barbs_follow_it():
+    """The shaft bends back with the sheet (``bend_cm``: ``z = −bend·v²``, every level and the
+    barbs alike): over the vane (``v`` from 0 to ``t = rachis_length``) a parabola's sagitta
+    over its chord is ``bend·t/(4L)`` to first order, 2·0.74/120 = 1.23 % on the eye (measured
+    1.23 % of a 22.43 cm chord). The rachis barbs' roots lie at the shaft's depth at their
+    height (measured within 0.033 cm)."""
+    geometry = tomllib.loads(RECIPE.read_text())["geometry"]
+    centre = _rachis_centre_line(LAYER)
+    vane = centre[centre[:, 1] >= 0.0]
+    chord = vane[-1] - vane[0]
+    length = np.linalg.norm(chord)
+    rel = vane - vane[0]
+    off = rel - np.outer(rel @ chord, chord) / length**2
+    sagitta = float(np.linalg.norm(off, axis=1).max()) / length
+    expected = geometry["bend_cm"] * geometry["rachis_length"] / (4.0 * geometry["length_cm"])
+    barbs = Sdf.Layer.OpenAsAnonymous(str(LAYER.with_name("eye_feather_geo_barbs.usdc")))
+    curves = None
+    for prim in barbs.rootPrims[0].nameChildren["Geom"].nameChildren:
+        if prim.typeName == "BasisCurves":
+            curves = prim
+    assert curves is not None
+    points = np.array(curves.attributes["points"].default, dtype=float)
+    counts = np.array(curves.attributes["curveVertexCounts"].default)
+    roots = points[np.cumsum(counts) - counts]
+    below = roots[:, 1] < vane[-1, 1] - 0.5  # the rachis barbs (the fan starts at the tip)
+    depth = roots[below, 2] - np.interp(roots[below, 1], centre[:, 1], centre[:, 2])
+    print(
+        f"\nrachis sagitta {sagitta:.2%} of its chord ({length:.2f} cm; parabola {expected:.2%}); "
+        f"{below.sum()} barb roots within {np.abs(depth).max():.3f} cm of its depth"
+    )
+    assert sagitta == pytest.approx(expected, rel=0.05)
+    assert sagitta >= 0.01
+    assert np.abs(depth).max() <= 0.05
