@@ -199,6 +199,8 @@ RECIPE_KEYS = [
     "geometry.form.droop_deg",
     "geometry.form.root_jitter",
     "geometry.form.length_jitter",
+    "geometry.form.clump",
+    "geometry.form.clump_size",
     "geometry.form.seed",
     "bake.resolution",
     "unknown",

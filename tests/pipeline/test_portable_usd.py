@@ -105,7 +105,10 @@ def test_each_ribbon_is_flat_as_wide_as_authored_and_faces_its_normal(portable):
     vertex = normals[np.array(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)[:, 0]]
     cosine = np.sum(face[ok] / area[ok, None] * vertex[ok], axis=1)
     facing = area[ok][cosine > 0.999].sum() / area[ok].sum()  # within 2.6°, by area
-    assert facing > 0.999 and cosine.min() > 0.0  # (the few tilted: slivers where barbs taper)
+    # The few tilted: slivers where barbs taper, and the fringe's clumped tails, which bend in
+    # the vane toward their clump and droop out of it at once (a ribbon bent both ways twists):
+    # 0.079 % of the area before the clumps, 0.213 % with them (shipped eye, barb_clumps.py).
+    assert facing > 0.997 and cosine.min() > 0.0
 
 
 def test_the_colour_is_bound_through_a_preview_surface(portable):

@@ -242,10 +242,11 @@ def test_form_keys_reach_the_options(tmp_path):
 
     text = MINIMAL + (
         "[geometry.form]\nenabled = false\ncamber = 0.1\nbow = 0\nbow_out = 0.05\n"
-        "droop_deg = 30\nroot_jitter = 0.2\nlength_jitter = 0.25\nseed = 7\n"
+        "droop_deg = 30\nroot_jitter = 0.2\nlength_jitter = 0.25\nclump = 0.3\n"
+        "clump_size = 6\nseed = 7\n"
     )
     form = parse_recipe(_write(tmp_path, text)).geometry.form
-    assert form == FormOptions(False, 0.1, 0.0, 0.05, 30.0, 0.2, 0.25, 7)
+    assert form == FormOptions(False, 0.1, 0.0, 0.05, 30.0, 0.2, 0.25, 0.3, 6.0, 7)
     assert parse_recipe(_write(tmp_path, MINIMAL)).geometry.form == FormOptions()
 
 
@@ -262,6 +263,12 @@ def test_form_keys_reach_the_options(tmp_path):
         ("root_jitter = 1", "geometry.form.root_jitter", "must lie in [0, 0.3]"),
         ("length_jitter = true", "geometry.form.length_jitter", "expected a number"),
         ("length_jitter = 1", "geometry.form.length_jitter", "must lie in [0, 0.9]"),
+        ("clump = 1.5", "geometry.form.clump", "must lie in [0, 1]"),
+        ("clump = nan", "geometry.form.clump", "finite"),
+        ('clump = "0.5"', "geometry.form.clump", "expected a number"),
+        ("clump_size = 0.5", "geometry.form.clump_size", "must lie in [1, 20]"),
+        ("clump_size = inf", "geometry.form.clump_size", "finite"),
+        ("clump_size = []", "geometry.form.clump_size", "expected a number"),
         ("seed = -1", "geometry.form.seed", "must not be negative"),
         ("seed = 1.5", "geometry.form.seed", "integer"),
         ("seed = 4294967296", "geometry.form.seed", "[0, 2147483647]"),

@@ -319,6 +319,7 @@ def build_barbs(
     )
     kept = counts >= 2
     path, counts, rachis_barb = path[kept], counts[kept], rachis_barb[kept]
+    family, position = barb_families(path[:, 0], rachis_barb, tip)
     order = np.arange(path.shape[1])[None, :] < counts[:, None]
     xy = path[order]
     xy, counts, klass = split_at_classes(
@@ -355,7 +356,21 @@ def build_barbs(
         return curves
     along = normalise(dpdv)
     half_width = 0.5 * frame.width
-    return apply_form(curves, along, rachis_barb, layout.spacing_cm, half_width, form, seed)
+    return apply_form(
+        curves, along, rachis_barb, layout.spacing_cm, half_width, form, seed, family, position
+    )
+
+
+def barb_families(
+    roots: np.ndarray, rachis_barb: np.ndarray, tip: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per barb, its family (0 left of the rachis, 1 right of it, 2 the tip's fan) and its
+    place in it (a rachis barb's root height, a fan barb's angle around the tip), from the
+    roots in feather square units: neighbours for the clumps."""
+    side = np.where(roots[:, 0] < 0.0, 0, 1)
+    family = np.where(rachis_barb, side, 2)
+    angle = np.arctan2(roots[:, 0] - tip[0], roots[:, 1] - tip[1])
+    return family, np.where(rachis_barb, roots[:, 1], angle)
 
 
 #: A loose barb's ribbon (coverage below :data:`~pavonine.pipeline.convert.barb_form.

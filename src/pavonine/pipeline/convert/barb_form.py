@@ -41,6 +41,10 @@ normal, ``w`` the feather's half width in cm):
    bending more toward its free tip; where the barbules hook in again, ``λ = 0``, it runs
    parallel to the vane). The default 50° is an estimate.
 
+6. **Clumps** (``clump``, ``clump_size``): the fringe's loose tips gather into clumps
+   (:mod:`pavonine.pipeline.convert.barb_clumps`), in the vane, before 3.–5. move the points
+   out of it; its draws come after every other, so the rest of the form does not depend on it.
+
 Tangents are then the moved polylines' (central differences), normals the old normals made
 orthogonal to them. Every draw comes from ``numpy.random.default_rng(seed)``: the same recipe
 always gives the same barbs.
@@ -53,6 +57,8 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from pavonine.pipeline.convert.barb_clumps import clump, clump_guides
 
 if TYPE_CHECKING:
     from pavonine.pipeline.convert.barb_curves import BarbCurves
@@ -79,6 +85,8 @@ class FormOptions:
     droop_deg: float = 50.0  # slope of a loose barb's tip out of the vane
     root_jitter: float = 0.1  # std of a root's shift along the rachis / spacing_cm
     length_jitter: float = 0.1  # largest share of a barb's length cut off its loose tail
+    clump: float = 0.6  # share of the way a loose fringe tip moves toward its clump's guide
+    clump_size: float = 4.0  # mean barbs per clump
     seed: int | None = None  # None: the asset's seed (CRC-32 of its name)
 
 
@@ -90,6 +98,8 @@ FORM_RANGES: dict[str, tuple[float, float]] = {
     "droop_deg": (0.0, 80.0),
     "root_jitter": (0.0, 0.3),
     "length_jitter": (0.0, 0.9),
+    "clump": (0.0, 1.0),
+    "clump_size": (1.0, 20.0),
 }
 
 
@@ -171,10 +181,15 @@ def apply_form(
     half_width_cm: float,
     options: FormOptions,
     seed: int,
+    family: np.ndarray | None = None,
+    position: np.ndarray | None = None,
 ) -> BarbCurves:
     """The barbs moved into their form (module docstring). ``along``: per vertex, the unit
     direction up the rachis (toward the feather's tip) in object space; ``rachis_barb``: per
-    barb, whether it leaves the side of the rachis (else the tip's fan); lengths in cm."""
+    barb, whether it leaves the side of the rachis (else the tip's fan); lengths in cm.
+    ``family`` and ``position`` (per barb) order the barbs for the clumps
+    (:func:`pavonine.pipeline.convert.barb_clumps.clump_guides`); without them all barbs are
+    one family in their order."""
     if not options.enabled or curves.barb_count == 0:
         return curves
     rng = np.random.default_rng(seed)
@@ -212,6 +227,15 @@ def apply_form(
     slope = math.tan(math.radians(options.droop_deg))
     ramp = loose * np.minimum(1.0, loose_len / (DROOP_SHARE * half_width_cm))
     out += slope * _per_barb_cumsum(step * ramp, counts)
+    # Clumps of loose barbs (barb_clumps): drawn after every other draw, so that the rest of
+    # the form does not depend on them.
+    if family is None or position is None:
+        family, position = np.zeros(b, dtype=np.int64), np.arange(b, dtype=np.float64)
+    guide = clump_guides(family, position, options.clump_size, rng)
+    # The fringe: barbs of the tip's fan whose tips hang loose (not those meeting the rachis'
+    # barbs below the eye).
+    fringe = ~rachis_barb & (curves.coverage[np.cumsum(counts) - 1] < LOOSE_COVERAGE)
+    points = clump(points, s, counts, xl, guide, options.clump, fringe)
     # 4. In-vane bow toward the feather's tip.
     side = _normalise(np.cross(normal, curves.tangent))
     toward_tip = np.sum(side * along, axis=1, keepdims=True) * side

@@ -11,6 +11,12 @@ import numpy as np
 
 from pavonine.pipeline.convert.surface import FeatherFrame, normalise
 
+#: Length (cm) of the cone in which the shaft ends past its top ring: it tapers to a point
+#: (a rachis narrows to its tip, Lucas & Stettenheim 1972, *Avian Anatomy: Integument*;
+#: the length is an estimate). A cone 1.5 tip radii long (0.045 cm on the eye) read as a
+#: blunt, square end in close-ups of the eye's heart.
+TIP_TAPER_CM = 0.6
+
 
 @dataclass
 class RachisSpec:
@@ -55,7 +61,7 @@ def base_rachis(
         [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
     )
     cap_len = 0.6 * spec.radius_cm / frame.length
-    tip_len = 1.5 * spec.tip_radius_cm / frame.length
+    tip_len = max(TIP_TAPER_CM, 1.5 * spec.tip_radius_cm) / frame.length
     apex = np.array([[bottom - cap_len, 0.0, 0.0, 0.0], [spec.top + tip_len, 0.0, 0.0, 0.0]])
     base_apex, top_apex = len(coords), len(coords) + 1
     ring0, ring1 = idx[0], idx[-1]
