@@ -60,7 +60,7 @@ def test_stage_has_one_point_instancer_with_the_recipes_prototypes_and_instances
         assert proto.GetVariantSet("lod").GetVariantSelection() == recipe.lod
         assert Usd.ModelAPI(proto).GetKind() == "component"
     assert Usd.ModelAPI(stage.GetDefaultPrim()).GetKind() == "assembly"
-    assert report["prototypes"] == {"blue": 14, "eye": 144, "fishtail": 16, "yellow": 18}
+    assert report["prototypes"] == {"blue": 14, "eye": 168, "fishtail": 14, "yellow": 24}
 
 
 def test_the_assembly_validates_and_matches_the_shipped_one(train):
@@ -98,10 +98,22 @@ def test_layout_is_seeded_and_physical():
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda t: t.replace("count = 44", "count = -4"), "rows.0.count: must be positive"),
+        (lambda t: t.replace("count = 32", "count = -4", 1), "rows.0.count: must be positive"),
+        (
+            lambda t: t.replace("bend = 3.0", "bend = 0.0", 1),
+            "rows.0.bend: must lie in [0.25, 8], got 0",
+        ),
+        (
+            lambda t: t.replace("edge_bend = 4.0", "edge_bend = nan", 1),
+            "rows.0.edge_bend: must be finite, got nan",
+        ),
+        (
+            lambda t: t.replace("edge_droop_deg = 8", 'edge_droop_deg = "8"', 1),
+            "rows.0.edge_droop_deg:",
+        ),
         (
             lambda t: t.replace('component = "blue"', 'component = "green"'),
-            "rows.6.component: unknown component 'green'",
+            "rows.7.component: unknown component 'green'",
         ),
         (lambda t: t.replace("seed = 7", "seed = 7\ncolour = 1"), "colour: unknown key"),
         (
