@@ -104,11 +104,11 @@ def test_layout_is_seeded_and_physical():
             "rows.0.bend: must lie in [0.25, 8], got 0",
         ),
         (
-            lambda t: t.replace("edge_bend = 4.0", "edge_bend = nan", 1),
+            lambda t: t.replace("edge_bend = 5.0", "edge_bend = nan", 1),
             "rows.0.edge_bend: must be finite, got nan",
         ),
         (
-            lambda t: t.replace("edge_droop_deg = 8", 'edge_droop_deg = "8"', 1),
+            lambda t: t.replace("edge_droop_deg = 2", 'edge_droop_deg = "8"', 1),
             "rows.0.edge_droop_deg:",
         ),
         (
