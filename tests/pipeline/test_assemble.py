@@ -185,3 +185,15 @@ def test_every_instance_has_its_own_glitter_seed():
     assert np.all(seeds < 2**24) and np.array_equal(seeds.astype(np.float32), seeds)
     assert np.array_equal(seeds, instance_seeds(recipe.seed, recipe.feather_count))
     assert not np.array_equal(seeds, instance_seeds(recipe.seed + 1, recipe.feather_count))
+
+
+def test_the_layout_plot_reads_each_components_height_from_its_extents_hint():
+    """The hint's first pair is the default purpose's, empty (+FLT_MAX, -FLT_MAX) when all the
+    geometry is render/proxy: the height is the tallest non-empty pair's, the vane's top."""
+    from pavonine.pipeline.assemble.train import component_height
+
+    eye = REPO / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
+    stage = Usd.Stage.Open(str(eye))
+    vane = UsdGeom.Mesh(next(p for p in stage.Traverse() if p.GetName() == "Vane"))
+    top = np.array(vane.GetPointsAttr().Get())[:, 1].max()
+    assert component_height(eye) == pytest.approx(top, abs=1e-3)
