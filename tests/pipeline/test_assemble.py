@@ -197,3 +197,29 @@ def test_the_layout_plot_reads_each_components_height_from_its_extents_hint():
     vane = UsdGeom.Mesh(next(p for p in stage.Traverse() if p.GetName() == "Vane"))
     top = np.array(vane.GetPointsAttr().Get())[:, 1].max()
     assert component_height(eye) == pytest.approx(top, abs=1e-3)
+
+
+def test_a_rows_bend_scales_depth_and_its_edge_feathers_droop_outward():
+    """``bend`` multiplies the depth scale only; ``edge_bend``/``edge_droop_deg`` touch only the
+    edge feathers, turning each further from straight up on its own side."""
+    from dataclasses import replace
+
+    recipe = parse_train_recipe(RECIPE)
+    row = recipe.rows[0]
+    assert row.edge_count == 2 and row.bend == 3.0 and row.edge_droop_deg == 2
+    flat = replace(row, bend=1.0, edge_bend=1.0, edge_droop_deg=0.0)
+    a = layout(recipe)
+    b = layout(replace(recipe, rows=(flat, *recipe.rows[1:])))
+    mine = a.row == 0
+    edge = np.zeros(row.count, dtype=bool)
+    edge[:2] = edge[-2:] = True
+    ratio = a.scales[mine, 2] / b.scales[mine, 2]
+    assert np.allclose(ratio[~edge], 3.0) and np.allclose(ratio[edge], row.edge_bend)
+    assert np.array_equal(a.scales[mine, :2], b.scales[mine, :2])
+    turn = np.degrees(
+        np.arctan2(a.positions[mine, 0], a.positions[mine, 1])
+        - np.arctan2(b.positions[mine, 0], b.positions[mine, 1])
+    )
+    assert np.allclose(turn[~edge], 0.0, atol=1e-9)
+    assert np.allclose(np.abs(turn[edge]), 2.0) and np.all(np.sign(turn[edge]) == [-1, -1, 1, 1])
+    assert np.array_equal(a.positions[~mine], b.positions[~mine])

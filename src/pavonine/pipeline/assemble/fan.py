@@ -14,8 +14,8 @@ exactly the sagitta of its bend and cup (``P_z = −bend·v² − cup·(2u−1)�
 is the component converted with ``b · c`` times its ``bend_cm`` and ``cup_cm``): a curved
 feather, and a jittered curvature, need no new geometry (one prototype per component, however
 bent). A row's edge feathers (fishtails) take its ``edge_bend`` and are turned
-``edge_droop_deg`` further from straight up, outward (they droop at the fan's rim). Every jitter and variation is drawn uniformly
-from one ``numpy.random.default_rng(seed)``, in a fixed order: the same recipe gives the same fan.
+``edge_droop_deg`` further from straight up, outward (they droop at the fan's rim). Every jitter
+and variation is drawn uniformly from one ``numpy.random.default_rng(seed)``, in a fixed order: the same recipe gives the same fan.
 Each feather's glitter seed (``pavonine:glitterSeed``, so that no two sparkle alike) is a hash of
 the recipe's seed and its index, drawn outside that stream (adding it moved no other value).
 """
