@@ -8,7 +8,7 @@
    resident set): a warm-up pass, then the timed render; prints seconds, peak RSS and the
    ratios (targets <= 2x each).
 3. ``--train``: the shipped train and the same train with its front row of eye feathers as
-   barbs (``rows.4.geometry = "barbs"``), at ``--train-resolution`` (1024x768) and ``--spp``;
+   barbs (``rows.5.geometry = "barbs"``, the innermost eye row), at ``--train-resolution`` (1024x768) and ``--spp``;
    prints the peak RSS of each and their ratio (target <= 1.5x).
 
 Usage: python benchmarks/bench_barbs.py [--resolution 512x768] [--spp 64] [--repeat 2] [--train]
@@ -28,7 +28,7 @@ REPO = Path(__file__).parents[1]
 RECIPE = REPO / "assets" / "recipes" / "eye_feather.toml"
 HERO = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
 TRAIN_RECIPE = REPO / "assets" / "recipes" / "peacock_train.toml"
-FRONT_ROW = "count = 20\nradius_cm = 8\n"
+FRONT_ROW = "count = 28\nradius_cm = 32.4\n"
 sys.path.insert(0, str(Path(__file__).parent))
 
 

@@ -1,6 +1,6 @@
 """The whole train against one feather: render seconds and peak memory, in the same run.
 
-Renders ``assets/scenes/peacock_train.usda`` (192 feathers through one PointInstancer, four
+Renders ``assets/scenes/peacock_train.usda`` (220 feathers through one PointInstancer, four
 prototypes at their medium LOD) and the single eye feather (``eye_feather_sun.usda``, its high
 LOD) at the same size and samples, each in a fresh process (so each peak resident set is its
 own): a warm-up that compiles the kernels, then the timed render. The warm-up is one pass of the

@@ -24,7 +24,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 IMAGES = Path(__file__).parent / "images"
-BOX = (296, 150, 424, 246)  # 128 × 96 pixels of the 512 × 384 frame: eyes of rows 2-4
+BOX = (296, 150, 424, 246)  # 128 × 96 pixels of the 512 × 384 frame: the inner rows' eyes
 
 
 def main(folder: Path) -> None:

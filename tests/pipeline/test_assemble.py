@@ -60,7 +60,7 @@ def test_stage_has_one_point_instancer_with_the_recipes_prototypes_and_instances
         assert proto.GetVariantSet("lod").GetVariantSelection() == recipe.lod
         assert Usd.ModelAPI(proto).GetKind() == "component"
     assert Usd.ModelAPI(stage.GetDefaultPrim()).GetKind() == "assembly"
-    assert report["prototypes"] == {"blue": 14, "eye": 144, "fishtail": 16, "yellow": 18}
+    assert report["prototypes"] == {"blue": 14, "eye": 168, "fishtail": 14, "yellow": 24}
 
 
 def test_the_assembly_validates_and_matches_the_shipped_one(train):
@@ -98,10 +98,22 @@ def test_layout_is_seeded_and_physical():
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda t: t.replace("count = 44", "count = -4"), "rows.0.count: must be positive"),
+        (lambda t: t.replace("count = 32", "count = -4", 1), "rows.0.count: must be positive"),
+        (
+            lambda t: t.replace("bend = 3.0", "bend = 0.0", 1),
+            "rows.0.bend: must lie in [0.25, 8], got 0",
+        ),
+        (
+            lambda t: t.replace("edge_bend = 5.0", "edge_bend = nan", 1),
+            "rows.0.edge_bend: must be finite, got nan",
+        ),
+        (
+            lambda t: t.replace("edge_droop_deg = 2", 'edge_droop_deg = "8"', 1),
+            "rows.0.edge_droop_deg:",
+        ),
         (
             lambda t: t.replace('component = "blue"', 'component = "green"'),
-            "rows.6.component: unknown component 'green'",
+            "rows.7.component: unknown component 'green'",
         ),
         (lambda t: t.replace("seed = 7", "seed = 7\ncolour = 1"), "colour: unknown key"),
         (
@@ -173,3 +185,41 @@ def test_every_instance_has_its_own_glitter_seed():
     assert np.all(seeds < 2**24) and np.array_equal(seeds.astype(np.float32), seeds)
     assert np.array_equal(seeds, instance_seeds(recipe.seed, recipe.feather_count))
     assert not np.array_equal(seeds, instance_seeds(recipe.seed + 1, recipe.feather_count))
+
+
+def test_the_layout_plot_reads_each_components_height_from_its_extents_hint():
+    """The hint's first pair is the default purpose's, empty (+FLT_MAX, -FLT_MAX) when all the
+    geometry is render/proxy: the height is the tallest non-empty pair's, the vane's top."""
+    from pavonine.pipeline.assemble.train import component_height
+
+    eye = REPO / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
+    stage = Usd.Stage.Open(str(eye))
+    vane = UsdGeom.Mesh(next(p for p in stage.Traverse() if p.GetName() == "Vane"))
+    top = np.array(vane.GetPointsAttr().Get())[:, 1].max()
+    assert component_height(eye) == pytest.approx(top, abs=1e-3)
+
+
+def test_a_rows_bend_scales_depth_and_its_edge_feathers_droop_outward():
+    """``bend`` multiplies the depth scale only; ``edge_bend``/``edge_droop_deg`` touch only the
+    edge feathers, turning each further from straight up on its own side."""
+    from dataclasses import replace
+
+    recipe = parse_train_recipe(RECIPE)
+    row = recipe.rows[0]
+    assert row.edge_count == 2 and row.bend == 3.0 and row.edge_droop_deg == 2
+    flat = replace(row, bend=1.0, edge_bend=1.0, edge_droop_deg=0.0)
+    a = layout(recipe)
+    b = layout(replace(recipe, rows=(flat, *recipe.rows[1:])))
+    mine = a.row == 0
+    edge = np.zeros(row.count, dtype=bool)
+    edge[:2] = edge[-2:] = True
+    ratio = a.scales[mine, 2] / b.scales[mine, 2]
+    assert np.allclose(ratio[~edge], 3.0) and np.allclose(ratio[edge], row.edge_bend)
+    assert np.array_equal(a.scales[mine, :2], b.scales[mine, :2])
+    turn = np.degrees(
+        np.arctan2(a.positions[mine, 0], a.positions[mine, 1])
+        - np.arctan2(b.positions[mine, 0], b.positions[mine, 1])
+    )
+    assert np.allclose(turn[~edge], 0.0, atol=1e-9)
+    assert np.allclose(np.abs(turn[edge]), 2.0) and np.all(np.sign(turn[edge]) == [-1, -1, 1, 1])
+    assert np.array_equal(a.positions[~mine], b.positions[~mine])

@@ -302,7 +302,7 @@ def test_a_train_row_can_take_the_barbs_still_instanced(tmp_path):
     repo = Path(__file__).parents[2]
     text = (repo / "assets" / "recipes" / "peacock_train.toml").read_text()
     text = text.replace('"../feathers/', f'"{repo / "assets" / "feathers"}/')
-    front = "count = 20\nradius_cm = 8\n"
+    front = "count = 28\nradius_cm = 32.4\n"
     assert front in text
     (tmp_path / "train.toml").write_text(text.replace(front, front + 'geometry = "barbs"\n'))
     result = CliRunner().invoke(
@@ -317,7 +317,7 @@ def test_a_train_row_can_take_the_barbs_still_instanced(tmp_path):
     names = [t.name for t in targets]
     assert names == ["blue", "eye", "fishtail", "yellow", "eye_barbs"]
     indices = np.array(instancer.GetProtoIndicesAttr().Get())
-    assert np.sum(indices == names.index("eye_barbs")) == 20  # the front row
+    assert np.sum(indices == names.index("eye_barbs")) == 28  # the front row
     assert np.sum(indices == names.index("eye")) > 100  # the rows behind keep the sheet
     barbs = stage.GetPrimAtPath(targets[-1])
     assert barbs.GetVariantSet("geometry").GetVariantSelection() == "barbs"

@@ -8,10 +8,14 @@ to the right), its base on the row's circle. Its transform, applied to the compo
 
     S · R_y(twist) · R_x(dish + tilt) · R_z(−θ) · T(base)      (USD's row-vector order)
 
-(θ including its rotation jitter) with ``S = diag(l, l, l · c)``: the length ``l`` scales the whole feather and the curvature ``c``
-only its depth, which is exactly the sagitta of its bend and cup (``P_z = −bend·v² − cup·(2u−1)²``),
-so a jittered curvature needs no new geometry. Every jitter and variation is drawn uniformly
-from one ``numpy.random.default_rng(seed)``, in a fixed order: the same recipe gives the same fan.
+(θ including its rotation jitter) with ``S = diag(l, l, l · b · c)``: the length ``l`` scales the
+whole feather, the row's ``bend`` ``b`` and the curvature jitter ``c`` only its depth, which is
+exactly the sagitta of its bend and cup (``P_z = −bend·v² − cup·(2u−1)²``, so the scaled feather
+is the component converted with ``b · c`` times its ``bend_cm`` and ``cup_cm``): a curved
+feather, and a jittered curvature, need no new geometry (one prototype per component, however
+bent). A row's edge feathers (fishtails) take its ``edge_bend`` and are turned
+``edge_droop_deg`` further from straight up, outward (they droop at the fan's rim). Every jitter
+and variation is drawn uniformly from one ``numpy.random.default_rng(seed)``, in a fixed order: the same recipe gives the same fan.
 Each feather's glitter seed (``pavonine:glitterSeed``, so that no two sparkle alike) is a hash of
 the recipe's seed and its index, drawn outside that stream (adding it moved no other value).
 """
@@ -104,16 +108,20 @@ def layout(recipe: TrainRecipe) -> Fan:
     rng = np.random.default_rng(recipe.seed)
     jitter, variation = recipe.jitter, recipe.variation
     parts: dict[str, list[np.ndarray]] = {
-        key: [] for key in ("proto", "theta", "radius", "length", "dish", "depth", "row")
+        key: [] for key in ("proto", "theta", "radius", "length", "dish", "depth", "row", "bend")
     }
     for r, row in enumerate(recipe.rows):
         n = row.count
         steps = (np.arange(n) + 0.5 + row.stagger) / n
         theta = math.radians(row.span_deg) * (steps - 0.5)
         proto = np.full(n, index[prototype_name(row.component, row.geometry)])
+        bend = np.full(n, row.bend)
         if row.edge_count:
-            proto[: row.edge_count] = index[prototype_name(row.edge, row.geometry)]
-            proto[n - row.edge_count :] = index[prototype_name(row.edge, row.geometry)]
+            edge = np.zeros(n, dtype=bool)
+            edge[: row.edge_count] = edge[n - row.edge_count :] = True
+            proto[edge] = index[prototype_name(row.edge, row.geometry)]
+            bend[edge] = row.bend if row.edge_bend is None else row.edge_bend
+            theta = theta + edge * np.sign(theta) * math.radians(row.edge_droop_deg)
         parts["proto"].append(proto)
         parts["theta"].append(theta)
         parts["radius"].append(np.full(n, row.radius_cm))
@@ -121,6 +129,7 @@ def layout(recipe: TrainRecipe) -> Fan:
         parts["dish"].append(np.full(n, math.radians(row.dish_deg)))
         parts["depth"].append(np.full(n, row.depth_cm))
         parts["row"].append(np.full(n, r))
+        parts["bend"].append(bend)
     p = {key: np.concatenate(values) for key, values in parts.items()}
     count = len(p["proto"])
 
@@ -142,7 +151,7 @@ def layout(recipe: TrainRecipe) -> Fan:
     positions = np.stack(
         [p["radius"] * np.sin(theta), p["radius"] * np.cos(theta), p["depth"]], axis=1
     )
-    scales = np.stack([length, length, length * curvature], axis=1)
+    scales = np.stack([length, length, length * curvature * p["bend"]], axis=1)
     return Fan(
         prototypes,
         p["proto"].astype(np.int32),

@@ -34,6 +34,9 @@ MAX_FEATHERS = 2_000
 #: scale multiplies the structural share (a worn feather is browner, never more than fully iridescent).
 MAX_GRADATION_OFFSET = 0.5
 STRUCTURAL_SCALE_RANGE = (0.5, 1.0)
+#: Bounds of a row's ``bend`` (× the component's depth): never flat (a train feather is curved,
+#: docs/pipeline.md "Train recipe"), at most 8× (a 2 cm bend of a 30 cm feather becomes 16 cm).
+BEND_RANGE = (0.25, 8.0)
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,9 @@ class Row:
     edge_count: int = 0  # that many at each end
     stagger: float = 0.0  # shift by this fraction of a step (eyes of a row between the last's)
     geometry: str = "sheet"  # the components' geometry variant: "sheet" or "barbs"
+    bend: float = 1.0  # × the component's depth: the sagitta of its rachis bend and vane cup
+    edge_bend: float | None = None  # the same for the edge feathers (default: ``bend``)
+    edge_droop_deg: float = 0.0  # the edge feathers turned this much further down, outward
 
 
 @dataclass(frozen=True)
@@ -99,6 +105,9 @@ _ROW_NUMBERS = {
     "dish_deg": (-80.0, 80.0),
     "depth_cm": (-1000.0, 1000.0),
     "stagger": (0.0, 1.0),
+    "bend": BEND_RANGE,
+    "edge_bend": BEND_RANGE,
+    "edge_droop_deg": (0.0, 60.0),
 }
 _JITTER_BOUNDS = {
     "length": 0.5,

@@ -151,12 +151,18 @@ def _author(stage, recipe: TrainRecipe, fan: Fan):
 
 
 def component_height(asset: Path) -> float:
-    """Top of a component (its ``extentsHint`` max Y, cm), 30 cm when it has none."""
+    """Top of a component (its ``extentsHint`` max Y, cm), 30 cm when it has none.
+
+    The hint holds a (min, max) pair per purpose (default, render, proxy, guide); a purpose with
+    no geometry has the empty pair (+FLT_MAX, −FLT_MAX), which is skipped.
+    """
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(asset), Usd.Stage.LoadNone)
     hint = UsdGeom.ModelAPI(stage.GetDefaultPrim()).GetExtentsHint() if stage else None
-    return float(hint[1][1]) if hint else 30.0
+    pairs = np.array(hint, dtype=np.float64).reshape(-1, 2, 3) if hint else np.zeros((0, 2, 3))
+    tops = [high[1] for low, high in pairs if np.all(low <= high)]
+    return float(max(tops)) if tops else 30.0
 
 
 def write_layout_png(path: Path, recipe: TrainRecipe, fan: Fan) -> None:
@@ -202,7 +208,7 @@ def write_layout_png(path: Path, recipe: TrainRecipe, fan: Fan) -> None:
     ax.set_xlabel("x (cm)")
     ax.set_ylabel("y (cm)")
     ax.set_title(f"{recipe.name}: {len(fan)} feathers, seed {recipe.seed} (tips marked)")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
