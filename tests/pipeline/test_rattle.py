@@ -14,6 +14,7 @@ from click.testing import CliRunner
 from pxr import Sdf, Usd, UsdGeom
 
 from pavonine.apps.cli import cli
+from pavonine.pipeline.assemble import flex as F
 from pavonine.pipeline.assemble import rattle as R
 from pavonine.pipeline.assemble.recipe import parse_train_recipe
 
@@ -133,7 +134,7 @@ def _world_displacements(root: Path, times) -> dict[str, tuple[float, float]]:
     instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/peacock_rattle/Feathers"))
     targets = instancer.GetPrototypesRel().GetTargets()
     indices = np.array(instancer.GetProtoIndicesAttr().Get())
-    mask_map = R._eyespot_lock(FEATHERS / "eye_feather" / "eye_feather.usd")[0]
+    mask_map = F._eyespot_lock(FEATHERS / "eye_feather" / "eye_feather.usd")[0]
 
     def matrices(t):
         m = instancer.ComputeInstanceTransformsAtTime(t, t)
@@ -151,7 +152,7 @@ def _world_displacements(root: Path, times) -> dict[str, tuple[float, float]]:
             rest = np.array(UsdGeom.Mesh(vane).GetPointsAttr().Get(), dtype=np.float64)
             moved = skinned.get(str(vane.GetPath()), rest)
             uv = np.array(UsdGeom.PrimvarsAPI(vane).GetPrimvar("pavonine_featherUV").Get())
-            eye = R._sample(mask_map, uv) if component == "eye" else np.zeros(len(rest), bool)
+            eye = F._sample(mask_map, uv) if component == "eye" else np.zeros(len(rest), bool)
             a, b = np.c_[rest, np.ones(len(rest))], np.c_[moved, np.ones(len(rest))]
             entry = worst.setdefault(component, [0.0, 0.0])
             for i in np.flatnonzero(indices == j):
@@ -181,13 +182,13 @@ def test_the_flex_follows_the_physics():
     barbs: the cantilever mode of their distance from the rachis, zero on the eyespot."""
     recipe = parse_train_recipe(RATTLE)
     eye = FEATHERS / "eye_feather" / "eye_feather.usd"
-    geometry = R.read_geometry("eye", eye, "medium", "sheet")
-    node = R.node_height(geometry)
-    tip = R.tip_height(geometry)
+    geometry = F.read_geometry("eye", eye, "medium", "sheet")
+    node = F.node_height(geometry)
+    tip = F.tip_height(geometry)
     assert 0.5 * tip < node < 0.7 * tip  # the ocellus' lower edge (paint.py: 0.565 of the map)
-    shape = R.prototype_shape(geometry, geometry.loose_reach_cm, tip, recipe.seed)
+    shape = F.prototype_shape(geometry, geometry.loose_reach_cm, tip, recipe.seed)
     vane = next(d for d in shape.deformed if d.path == "Geom/Vane")
-    peak = R.peak_displacement(vane)
+    peak = F.peak_displacement(vane)
     assert np.all(peak[vane.eyespot] < 1e-6)  # locked barbs do not flex
     points = geometry.prims[[p.path for p in geometry.prims].index("Geom/Vane")].points
     moving = points[vane.indices]
@@ -196,7 +197,7 @@ def test_the_flex_follows_the_physics():
     assert np.all(np.abs(vane.sin[on_rachis & above, 0]) < 1e-3)
     middle = on_rachis & (np.abs(moving[:, 1] - node / 2) < 0.5)
     assert np.allclose(vane.sin[middle, 0], 1.0, atol=0.02)  # the antinode
-    assert R.cantilever_mode(np.array([0.0]))[0] == 0 and R.cantilever_mode(np.array([1.0]))[
+    assert F.cantilever_mode(np.array([0.0]))[0] == 0 and F.cantilever_mode(np.array([1.0]))[
         0
     ] == pytest.approx(1.0)
     # phases: seeded, spread over the cycle, and the nearest variant
