@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Sdf
+from barb_layer import curve_attributes
 
 from pavonine.pipeline.convert.barb_clumps import clump, clump_guides, point_at_length
 from pavonine.pipeline.convert.barb_form import FormOptions, apply_form
@@ -91,17 +91,11 @@ def _fringe_tip_gaps(path: Path, rachis_top: float) -> np.ndarray:
     """Distances (cm) between neighbouring loose tips of the tip's fan, in their order around
     the rachis tip; a barb is loose at its tip where its barbules reach nothing
     (``pavonine_barbules`` 0: coverage under 0.75)."""
-    layer = Sdf.Layer.OpenAsAnonymous(str(path))
-    curves = None
-    for prim in layer.rootPrims[0].nameChildren["Geom"].nameChildren:
-        if prim.typeName == "BasisCurves":
-            curves = prim
-    assert curves is not None
-    attrs = curves.attributes
-    points = np.array(attrs["points"].default, dtype=float)
-    counts = np.array(attrs["curveVertexCounts"].default, dtype=int)
-    uv = np.array(attrs["primvars:pavonine_featherUV"].default, dtype=float)
-    reach = np.array(attrs["primvars:pavonine_barbules"].default, dtype=float)
+    attrs = curve_attributes(path)
+    points = attrs["points"].astype(float)
+    counts = attrs["curveVertexCounts"].astype(int)
+    uv = attrs["primvars:pavonine_featherUV"].astype(float)
+    reach = attrs["primvars:pavonine_barbules"].astype(float)
     starts = np.cumsum(counts) - counts
     ends = starts + counts - 1
     chosen = (uv[starts, 1] > rachis_top - 0.005) & (reach[ends] <= 1e-6)

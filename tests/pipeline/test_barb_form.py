@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Sdf
+from barb_layer import curve_attributes
 
 from pavonine.pipeline.convert.barb_form import FormOptions, apply_form
 
@@ -28,17 +28,10 @@ RECIPE = REPO / "assets" / "recipes" / "eye_feather.toml"
 
 def _barbs() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points (cm), vertex counts and feather coordinates of the shipped eye feather's barbs."""
-    layer = Sdf.Layer.OpenAsAnonymous(str(LAYER))  # a private copy: the shipped layer untouched
-    curves = None
-    for prim in layer.rootPrims[0].nameChildren["Geom"].nameChildren:
-        if prim.typeName == "BasisCurves":
-            curves = prim
-    assert curves is not None
-    attrs = curves.attributes
-    points = np.array(attrs["points"].default, dtype=float)
-    counts = np.array(attrs["curveVertexCounts"].default, dtype=int)
-    uv = np.array(attrs["primvars:pavonine_featherUV"].default, dtype=float)
-    return points, counts, uv
+    attrs = curve_attributes(LAYER)
+    points = attrs["points"].astype(float)
+    counts = attrs["curveVertexCounts"].astype(int)
+    return points, counts, attrs["primvars:pavonine_featherUV"].astype(float)
 
 
 def form_figures(
