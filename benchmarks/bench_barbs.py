@@ -10,14 +10,22 @@
 3. ``--train``: the shipped train and the same train with its front row of eye feathers as
    barbs (``rows.5.geometry = "barbs"``, the innermost eye row), at ``--train-resolution`` (1024x768) and ``--spp``;
    prints the peak RSS of each and their ratio (target <= 1.5x).
+4. ``--cycles`` (on whenever ``--bpy-python`` or ``$PAVONINE_BPY_PYTHON`` is given): Pavonine
+   against Blender Cycles on the shipped ``assets/scenes/peacock_train.usda``, at
+   ``--train-resolution`` and ``--spp`` (equal samples per pixel), ``--rounds`` alternating rounds
+   of each, every render a fresh process measured from start to exit (scene load included on
+   both sides): prints CPU seconds, peak RSS, each image's noise and the ratios Pavonine / Cycles
+   (targets <= 1x). What each side renders: train_vs_cycles.py.
 
 Usage: python benchmarks/bench_barbs.py [--resolution 512x768] [--spp 64] [--repeat 2] [--train]
+       [--cycles [--bpy-python PY] [--rounds 2]] [--skip-convert] [--skip-hero]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -27,6 +35,7 @@ from pathlib import Path
 REPO = Path(__file__).parents[1]
 RECIPE = REPO / "assets" / "recipes" / "eye_feather.toml"
 HERO = REPO / "assets" / "scenes" / "eye_feather_sun.usda"
+TRAIN_SCENE = REPO / "assets" / "scenes" / "peacock_train.usda"
 TRAIN_RECIPE = REPO / "assets" / "recipes" / "peacock_train.toml"
 FRONT_ROW = "count = 28\nradius_cm = 32.4\n"
 sys.path.insert(0, str(Path(__file__).parent))
@@ -112,7 +121,15 @@ def main() -> None:
     parser.add_argument("--train", action="store_true", help="also the train's peak memory")
     parser.add_argument("--train-resolution", default="1024x768")
     parser.add_argument("--skip-convert", action="store_true")
+    parser.add_argument("--skip-hero", action="store_true", help="no hero renders (part 2)")
+    parser.add_argument("--cycles", action="store_true", help="also the train against Cycles")
+    parser.add_argument("--bpy-python", help="python of the venv with bpy [$PAVONINE_BPY_PYTHON]")
+    parser.add_argument("--cycles-spp", type=int, help="Cycles' samples per pixel [--spp]")
+    parser.add_argument("--rounds", type=int, default=2, help="alternating rounds of each (>= 2)")
+    parser.add_argument("--cycles-out", default=str(Path(tempfile.gettempdir()) / "bench_cycles"))
     args = parser.parse_args()
+    if args.rounds < 2:
+        parser.error("--rounds must be >= 2 (the noise of each side needs two images)")
     with tempfile.TemporaryDirectory(prefix="bench-barbs-") as tmp:
         folder = Path(tmp)
         if not args.skip_convert:
@@ -127,29 +144,53 @@ def main() -> None:
             print(
                 f"convert barbs / sheet: {barbs['seconds'] / sheet['seconds']:.2f}x (target <= 2x)"
             )
-        hero = {g: render(_scene(folder, g), args.resolution, args.spp) for g in ("sheet", "barbs")}
-        for name, r in hero.items():
-            print(
-                f"hero {name:<6} {args.resolution} @ {args.spp} spp: {r['seconds']:6.1f} s "
-                f"({r['cpu_seconds']:.1f} s CPU, load {r['load']:.1f}), peak RSS {r['peak_mib']:.0f} MiB"
-            )
-        s, b = hero["sheet"], hero["barbs"]
-        print(
-            f"hero barbs / sheet: time {b['seconds'] / s['seconds']:.2f}x, "
-            f"peak memory {b['peak_mib'] / s['peak_mib']:.2f}x (targets <= 2x)"
-        )
+        if not args.skip_hero:
+            hero_views(folder, args)
         if args.train:
-            trains = {
-                k: render(_train_scene(folder, k == "barbs"), args.train_resolution, args.spp)
-                for k in ("sheet", "barbs")
-            }
-            for name, r in trains.items():
-                print(
-                    f"train, front row {name:<6} {args.train_resolution} @ {args.spp} spp: "
-                    f"{r['seconds']:6.1f} s, peak RSS {r['peak_mib']:.0f} MiB"
-                )
-            ratio = trains["barbs"]["peak_mib"] / trains["sheet"]["peak_mib"]
-            print(f"train barbs front row / sheet: peak memory {ratio:.2f}x (target <= 1.5x)")
+            train_memory(folder, args)
+        if args.cycles or args.bpy_python or os.environ.get("PAVONINE_BPY_PYTHON"):
+            against_cycles(args)
+
+
+def hero_views(folder: Path, args: argparse.Namespace) -> None:
+    """Part 2: the hero view with the sheet and with the barbs, each in a fresh process."""
+    hero = {g: render(_scene(folder, g), args.resolution, args.spp) for g in ("sheet", "barbs")}
+    for name, r in hero.items():
+        print(
+            f"hero {name:<6} {args.resolution} @ {args.spp} spp: {r['seconds']:6.1f} s "
+            f"({r['cpu_seconds']:.1f} s CPU, load {r['load']:.1f}), peak RSS {r['peak_mib']:.0f} MiB"
+        )
+    s, b = hero["sheet"], hero["barbs"]
+    print(
+        f"hero barbs / sheet: time {b['seconds'] / s['seconds']:.2f}x, "
+        f"peak memory {b['peak_mib'] / s['peak_mib']:.2f}x (targets <= 2x)"
+    )
+
+
+def train_memory(folder: Path, args: argparse.Namespace) -> None:
+    """Part 3: the train's peak memory with its front row as sheets and as barbs."""
+    trains = {
+        k: render(_train_scene(folder, k == "barbs"), args.train_resolution, args.spp)
+        for k in ("sheet", "barbs")
+    }
+    for name, r in trains.items():
+        print(
+            f"train, front row {name:<6} {args.train_resolution} @ {args.spp} spp: "
+            f"{r['seconds']:6.1f} s, peak RSS {r['peak_mib']:.0f} MiB"
+        )
+    ratio = trains["barbs"]["peak_mib"] / trains["sheet"]["peak_mib"]
+    print(f"train barbs front row / sheet: peak memory {ratio:.2f}x (target <= 1.5x)")
+
+
+def against_cycles(args: argparse.Namespace) -> None:
+    """Part 4: the shipped train, Pavonine against Blender Cycles, alternating rounds."""
+    from blender_barbs import _bpy_python
+    from train_vs_cycles import compare
+
+    width, height = (int(v) for v in args.train_resolution.split("x"))
+    print(f"train {TRAIN_SCENE.name}, Pavonine vs Cycles, {args.rounds} alternating rounds:")
+    compare(TRAIN_SCENE, (width, height), args.spp, args.rounds, _bpy_python(args.bpy_python),
+            Path(args.cycles_out), args.cycles_spp)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -9,7 +9,8 @@ the scene's camera and lights, and optionally render the imported camera's view 
 
 ``JOB.json``: ``usd`` (the file to import), ``out`` (folder); to render also ``resolution``
 (width, height), ``cycles_samples``, ``threads`` and ``sky`` (a uniform world colour, linear
-RGB: Blender 5.3's importer makes no world of a ``DomeLight`` without a texture). Writes
+RGB: Blender 5.3's importer makes no world of a ``DomeLight`` without a texture) and, optionally,
+``seed`` (Cycles' seed, default 0). Writes
 ``OUT/blender.json`` and, when rendering, ``OUT/cycles.exr`` (linear, RGBA, film transparent).
 """
 
@@ -105,7 +106,7 @@ def set_up(job: dict) -> dict:
     scene.cycles.samples = int(job["cycles_samples"])
     scene.cycles.use_adaptive_sampling = False
     scene.cycles.use_denoising = False
-    scene.cycles.seed = 0
+    scene.cycles.seed = int(job.get("seed", 0))
     # Pavonine's film: a box filter one pixel wide (Cycles' default: Blackman-Harris, 1.5 px)
     scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
     return added

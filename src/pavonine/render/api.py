@@ -368,7 +368,9 @@ class RenderSession:
                 trace_loops_once=bool(self.delegate.table.instances),
             )
             weight = count / spp
-            total = image * weight if total is None else total + image * weight
+            if weight != 1.0:  # one slice (no blur): the image itself, no frame-sized copy
+                image = image * weight
+            total = image if total is None else total + image
             if variance is not None:
                 part = variance * weight * weight
                 variance_sum = part if variance_sum is None else variance_sum + part

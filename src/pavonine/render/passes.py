@@ -64,12 +64,17 @@ def render_passes(
         image = render_pass(mi, scene, sensor, integrator, spp_pass, pass_seed, trace_loops_once)
         if resample is not None:
             image = np.einsum("jk,ikc->ijc", resample, image)
-        total = image if total is None else total + image
+        if total is None:
+            total = image
+        else:
+            total += image  # in place: one frame-sized float64 array less at the peak
         if moments:
             beauty = image[..., :3]
             total_sq = beauty * beauty if total_sq is None else total_sq + beauty * beauty
+        del image
         advance(spp_pass)
-    mean = total / passes
+    mean = total
+    mean /= passes  # in place, the same IEEE division as ``total / passes``
     variance = None
     if total_sq is not None:
         sample_var = np.maximum(total_sq / passes - mean[..., :3] ** 2, 0.0) * passes / (passes - 1)
