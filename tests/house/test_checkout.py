@@ -56,3 +56,16 @@ def test_the_digest_sees_a_changed_file(tmp_path, monkeypatch):
     shipped.write_text("#usda 1.0\n# changed\n")
     assert _checkout_digest() != before
     assert list(before) == [str(shipped)]
+
+
+def test_every_test_module_has_its_own_basename():
+    """pytest imports test files by basename (``pythonpath`` lists the test folders, no
+    packages): two ``test_x.py`` in two folders are a collection error in a clean run."""
+    tests = Path(__file__).resolve().parents[1]
+    seen: dict[str, Path] = {}
+    clashes = []
+    for path in sorted(tests.rglob("test_*.py")):
+        if path.name in seen:
+            clashes.append(f"{seen[path.name].relative_to(tests)} and {path.relative_to(tests)}")
+        seen.setdefault(path.name, path)
+    assert not clashes, clashes
