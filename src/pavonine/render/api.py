@@ -135,7 +135,6 @@ class RenderSession:
         self.stage_path, self.options = stage_path, options
         self.sync_seconds: list[float] = []
         self.last_sync = "full"  # or "moved": only the time-varying prims, to this frame
-        self.syncing = False  # the frame's sync is the next retime (:meth:`render`)
         self._build(options.time)
 
     def _build(self, time: float | None) -> None:
@@ -296,6 +295,7 @@ class RenderSession:
         seed = self.options.seed if seed is None else seed
         spp = self.spp if spp is None else spp
         started = _time.perf_counter()
+        moved_frame = False
         if time is not None and motion.frame_time(render_time(self.stage, time)) != self.frame:
             if self.plan is None or not self.plan.complete or self.frame is None:
                 self.sync_seconds.pop()  # replaced by this frame's full sync
@@ -307,22 +307,23 @@ class RenderSession:
                 # the frame first would be undone by it); that retime is the frame's sync.
                 self.frame = float(time)
                 self.time_code = Usd.TimeCode(time)
-                self.sync_seconds.append(0.0)
-                self.syncing = True
-                self.last_sync = "moved"
+                self.last_sync, moved_frame = "moved", True
         options, jobs = self.options, self.jobs
         results = []
         sizes = [job.size for job in jobs]
+        moves: list[float] = []  # the seconds of each retime of this render, in order
         with SampleProgress(self.stage_path, sizes, spp, options.progress) as advance:
             for index, job in enumerate(jobs):
                 image, variance, passes, times, reach = self._render_job(
-                    index, job, spp, seed, advance
+                    index, job, spp, seed, advance, moves
                 )
                 images = job.plan.split(image)
                 finish_aovs(job, images)
                 results.append(
                     self._result(job, image, variance, images, passes, seed, spp, times, reach)
                 )
+        if moved_frame:  # its sync: the first retime, to the frame or to its first slice
+            self.sync_seconds.append(moves[0] if moves else 0.0)
         dr.sync_thread()
         for result in results:
             check_finite_image(result, self.stage_path)
@@ -335,7 +336,9 @@ class RenderSession:
             result.warnings = list(self.diag.messages)
         return results
 
-    def _render_job(self, index: int, job: ProductJob, spp: int, seed: int, advance):
+    def _render_job(
+        self, index: int, job: ProductJob, spp: int, seed: int, advance, moves: list[float]
+    ):
         """(image, variance, passes, slice times, motion reach in pixels or None) of one product:
         its shutter's slices, each rendered where the plan moves the scene, samples split across
         them (:mod:`.motion`)."""
@@ -352,9 +355,7 @@ class RenderSession:
         passes = 0
         for i, (when, count) in enumerate(zip(times, counts, strict=True)):
             if self.plan is not None and self.params is not None and when is not None:
-                moved = self.plan.retime(self.params, when, self.diag, base=self.frame)
-                if self.syncing:
-                    self.sync_seconds[-1], self.syncing = moved, False
+                moves.append(self.plan.retime(self.params, when, self.diag, base=self.frame))
             image, variance, slice_passes = render_passes(
                 self.scene,
                 sensor,
