@@ -83,12 +83,10 @@ def clump(
     guide: np.ndarray,
     strength: float,
     free: np.ndarray,
-    reach: np.ndarray | None = None,
 ) -> np.ndarray:
     """Points pulled toward their clump's guide (module docstring, 2.): ``s`` arc length per
     vertex (cm), ``loose_share`` the loose length so far over the barb's loose length (per
-    vertex, in [0, 1]), ``guide`` and ``free`` (whether it clumps at all) per barb; ``reach``
-    (per vertex, cm, optional) the longest a vertex moves."""
+    vertex, in [0, 1]), ``guide`` and ``free`` (whether it clumps at all) per barb."""
     if strength <= 0.0 or len(points) == 0:
         return points
     barb = np.repeat(np.arange(len(counts)), counts)
@@ -99,8 +97,4 @@ def clump(
     target = point_at_length(points, s, counts, guide[barb], along)
     weight = strength * np.clip(loose_share, 0.0, 1.0)
     weight = np.where((guide[barb] == barb) | ~free[barb], 0.0, weight)
-    pull = weight[:, None] * (target - points)
-    if reach is not None:
-        size = np.linalg.norm(pull, axis=1)
-        pull *= (np.minimum(size, reach) / np.maximum(size, 1e-12))[:, None]
-    return points + pull
+    return points + weight[:, None] * (target - points)
