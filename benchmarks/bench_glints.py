@@ -36,6 +36,7 @@ from pxr import Gf, Sdf, Usd, UsdRender
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
 from glint_scene import EYE, closeup_stage
+from render_helpers import render_product
 
 from pavonine.base.map_files import read_map, sample_nearest
 from pavonine.materials import colour
@@ -54,19 +55,12 @@ def hero_stage(path: Path, glitter: float, resolution: tuple[int, int] | None = 
     stage.GetRootLayer().subLayerPaths.append(str(SCENE))
     material = stage.OverridePrim("/World/Feather/Materials/Feather")
     material.CreateAttribute("pavonine:glitter", Sdf.ValueTypeNames.Float).Set(float(glitter))
-    settings = UsdRender.Settings(stage.OverridePrim("/Render/Settings"))
-    product = UsdRender.Product.Define(stage, "/Render/Product")
-    product.CreateCameraRel().SetTargets(["/World/Camera"])
     if resolution is not None:
+        settings = UsdRender.Settings(stage.OverridePrim("/Render/Settings"))
         settings.CreateResolutionAttr().Set(Gf.Vec2i(*resolution))
-        product.CreateResolutionAttr().Set(Gf.Vec2i(*resolution))
-    targets = []
-    for name in ("color", "uv"):
-        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
-        var.CreateSourceNameAttr(name)
-        targets.append(var.GetPath())
-    product.CreateOrderedVarsRel().SetTargets(targets)
-    settings.CreateProductsRel().SetTargets([product.GetPath()])
+    render_product(
+        stage, {"color": None, "uv": None}, camera="/World/Camera", resolution=resolution
+    )
     stage.GetRootLayer().Save()
     return path
 

@@ -124,19 +124,11 @@ def whole_pixel_share(alpha: np.ndarray, outline: np.ndarray) -> float:
 
 def with_alpha(path: Path) -> Path:
     """``path``'s stage with its render settings' one product giving ``color`` and ``alpha``."""
-    from pxr import Usd, UsdRender
+    from pxr import Usd
+    from render_helpers import render_product
 
     stage = Usd.Stage.Open(str(path))
-    settings = UsdRender.Settings.Get(stage, "/Render/Settings")
-    product = UsdRender.Product.Define(stage, "/Render/ColorAlpha")
-    targets = []
-    for name, kind in (("color", "color3f"), ("alpha", "float")):
-        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
-        var.CreateSourceNameAttr(name)
-        var.CreateDataTypeAttr(kind)
-        targets.append(var.GetPath())
-    product.CreateOrderedVarsRel().SetTargets(targets)
-    settings.CreateProductsRel().SetTargets([product.GetPath()])
+    render_product(stage, {"color": "color3f", "alpha": "float"}, path="/Render/ColorAlpha")
     stage.GetRootLayer().Save()
     return path
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
+from render_helpers import render_product
 
 ROOT = Path(__file__).resolve().parents[1]
 EYE = ROOT / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
@@ -63,15 +64,11 @@ def closeup_stage(
     settings.CreateCameraRel().SetTargets([camera.GetPath()])
     settings.CreateResolutionAttr(Gf.Vec2i(resolution, resolution))
     if uv:
-        product = UsdRender.Product.Define(stage, "/Render/Product")
-        product.CreateCameraRel().SetTargets([camera.GetPath()])
-        product.CreateResolutionAttr(Gf.Vec2i(resolution, resolution))
-        targets = []
-        for name, source in (("color", "color"), ("uv", "uv")):
-            var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
-            var.CreateSourceNameAttr(source)
-            targets.append(var.GetPath())
-        product.CreateOrderedVarsRel().SetTargets(targets)
-        settings.CreateProductsRel().SetTargets([product.GetPath()])
+        render_product(
+            stage,
+            {"color": None, "uv": None},
+            camera=str(camera.GetPath()),
+            resolution=(resolution, resolution),
+        )
     stage.GetRootLayer().Save()
     return path

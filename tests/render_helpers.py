@@ -7,7 +7,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
 
 from pavonine.render.api import RenderResult, render_stage
 from pavonine.render.diagnostics import StageWarning
@@ -66,6 +66,35 @@ def feather_sheet(
         [(0, 0), (1, 0), (1, 1), (0, 1)]
     )
     return mesh
+
+
+def render_product(
+    stage: Usd.Stage,
+    var_types: dict[str, str | None],
+    *,
+    path: str = "/Render/Product",
+    camera: str | None = None,
+    resolution: tuple[int, int] | None = None,
+) -> UsdRender.Product:
+    """Author a RenderProduct at ``path`` whose ordered RenderVars are ``var_types``' names (each
+    its own source name, with its data type unless ``None``), the one product of the stage's
+    ``/Render/Settings``."""
+    product = UsdRender.Product.Define(stage, path)
+    if camera is not None:
+        product.CreateCameraRel().SetTargets([camera])
+    if resolution is not None:
+        product.CreateResolutionAttr(Gf.Vec2i(*resolution))
+    targets = []
+    for name, data_type in var_types.items():
+        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
+        var.CreateSourceNameAttr(name)
+        if data_type is not None:
+            var.CreateDataTypeAttr(data_type)
+        targets.append(var.GetPath())
+    product.CreateOrderedVarsRel().SetTargets(targets)
+    settings = UsdRender.Settings(stage.GetPrimAtPath("/Render/Settings"))
+    settings.CreateProductsRel().SetTargets([product.GetPath()])
+    return product
 
 
 def set_input(shader: UsdShade.Shader, name: str, value) -> UsdShade.Input:

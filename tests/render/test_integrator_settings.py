@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from pxr import Gf, Sdf, Usd, UsdLux, UsdRender
-from render_helpers import bind, new_stage, preview, quad, render
+from render_helpers import bind, new_stage, preview, quad, render, render_product
 
 from pavonine.apps.cli import cli
 from pavonine.apps.compare.methods import stat_test
@@ -256,14 +256,7 @@ def test_the_stage_max_depth_is_honoured_and_the_caller_overrides_it(tmp_path):
 
 def with_alpha(stage: Usd.Stage) -> Usd.Stage:
     """``stage`` with a RenderProduct of the beauty and an ``alpha`` RenderVar."""
-    settings = UsdRender.Settings(stage.GetPrimAtPath("/Render/Settings"))
-    product = UsdRender.Product.Define(stage, "/Render/Main")
-    settings.GetProductsRel().AddTarget(product.GetPath())
-    for name in ("color", "alpha"):
-        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
-        var.CreateSourceNameAttr(name)
-        var.CreateDataTypeAttr("float" if name == "alpha" else "color3f")
-        product.GetOrderedVarsRel().AddTarget(var.GetPath())
+    render_product(stage, {"color": "color3f", "alpha": "float"}, path="/Render/Main")
     return stage
 
 
