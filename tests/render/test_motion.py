@@ -1,4 +1,4 @@
-"""Motion blur (``pavonine.render.motion``): the camera's shutter, time slices of one scene, and
+"""Motion blur (``pavonine.render.motion.blur``): the camera's shutter, time slices of one scene, and
 frames synced incrementally (``RenderSession``). The stage: ``tests/motion_scene.py``."""
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from motion_scene import (
 )
 
 from pavonine.apps.cli import cli
-from pavonine.render import motion
 from pavonine.render.api import RenderSession, render_stage
 from pavonine.render.diagnostics import StageWarning
 from pavonine.render.imageio import write_exr
+from pavonine.render.motion import blur
 from pavonine.render.options import RenderOptions
 
 pytestmark = pytest.mark.render
@@ -60,7 +60,7 @@ def test_streak_width_and_profile_match_the_motion(tmp_path, how):
     motion_stage(path, SHUTTER, how)
     level = plateau(tmp_path, how)
     result = render(path, spp=256)
-    assert result.metadata["time_slices"] == motion.DEFAULT_SLICES
+    assert result.metadata["time_slices"] == blur.DEFAULT_SLICES
     assert result.metadata["shutter"] == list(SHUTTER)
     measured = coverage(result.rgb, how, level)
     wanted = expected_streak(SHUTTER)
@@ -139,13 +139,13 @@ def test_blurred_frame_is_the_mean_of_its_instantaneous_sub_frames(tmp_path):
     motion_stage(instant, None)
     spp, slices, seed = 64, 8, 5
     blurred = render(path, spp=spp, seed=seed, motion_slices=slices, moments=True)
-    times = motion.Shutter(*SHUTTER).times(1.0, slices, seed)
-    counts = motion.slice_spp(spp, slices)
+    times = blur.Shutter(*SHUTTER).times(1.0, slices, seed)
+    counts = blur.slice_spp(spp, slices)
     same = np.zeros_like(blurred.rgb, dtype=np.float64)
     other = np.zeros_like(same)
     other_variance = np.zeros_like(same)
     for i, (when, count) in enumerate(zip(times, counts, strict=True)):
-        sub = render(instant, spp=count, seed=motion.slice_seed(seed, i, slices), time=when,
+        sub = render(instant, spp=count, seed=blur.slice_seed(seed, i, slices), time=when,
                      moments=True)  # fmt: skip
         same += sub.rgb * (count / spp)
         independent = render(instant, spp=count, seed=100 + i, time=when, moments=True)
@@ -212,7 +212,7 @@ def test_blurred_frames_of_a_session_move_once_a_slice_and_equal_fresh_renders(t
         assert moved.metadata["sync"] == "moved" and moved.metadata["sync_seconds"] > 0
         fresh = render(path, spp=8, seed=2, time=frame, motion_slices=4)
         assert np.array_equal(moved.rgb, fresh.rgb), frame
-    session.shutters = [motion.Shutter() for _ in session.shutters]  # the product made sharp
+    session.shutters = [blur.Shutter() for _ in session.shutters]  # the product made sharp
     sharp = session.render()[0]
     instant = tmp_path / "sharp.usda"
     motion_stage(instant, None)
@@ -272,7 +272,7 @@ def test_frames_move_a_prototype_in_place_and_equal_a_fresh_render(tmp_path):
 
 def test_a_skinned_prototype_moves_by_its_points_and_equals_a_fresh_render(tmp_path):
     """A skeleton inside a PointInstancer's prototype: between frames its bar moves by its
-    skinned points alone (render/deform.py, checked against the translation when the plan is
+    skinned points alone (render/motion/deform.py, checked against the translation when the plan is
     made), and each frame is the single-time render of its time, bit for bit."""
     import mitsuba as mi
     from pxr import Usd

@@ -1,5 +1,5 @@
 """How far the moving scene travels in the image within the shutter, and the slices that follow
-from it (``pavonine.render.motion_reach``). The stage: ``tests/motion_scene.py`` (a quad crossing
+from it (``pavonine.render.motion.reach``). The stage: ``tests/motion_scene.py`` (a quad crossing
 the image at 32 pixels a frame)."""
 
 from __future__ import annotations
@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from motion_scene import SIZE, SPEED, UNITS_PER_PIXEL, motion_stage
 
-from pavonine.render import motion, motion_reach
 from pavonine.render.api import render_stage
 from pavonine.render.diagnostics import StageWarning
+from pavonine.render.motion import blur
+from pavonine.render.motion import reach as motion_reach
 from pavonine.render.options import RenderOptions
 
 pytestmark = pytest.mark.render
@@ -35,7 +36,7 @@ def test_reach_is_the_image_motion_within_the_shutter(tmp_path, how):
     motion_stage(path, (-0.25, 0.25), how)
     result = render(path, spp=64, resolution=SIZE)
     assert result.metadata["motion_reach_px"] == pytest.approx(0.5 * PIXELS_PER_FRAME, abs=0.3)
-    assert result.metadata["time_slices"] == min(motion.DEFAULT_SLICES, 64 // 8)
+    assert result.metadata["time_slices"] == min(blur.DEFAULT_SLICES, 64 // 8)
 
 
 def test_slow_motion_takes_fewer_slices_and_still_averages_its_sub_frames(tmp_path):
@@ -47,11 +48,11 @@ def test_slow_motion_takes_fewer_slices_and_still_averages_its_sub_frames(tmp_pa
     result = render(path, spp=64, seed=3)
     assert result.metadata["motion_reach_px"] == pytest.approx(0.1 * PIXELS_PER_FRAME, abs=0.2)
     assert result.metadata["time_slices"] == 4
-    times = motion.Shutter(*shutter).times(1.0, 4, 3)
+    times = blur.Shutter(*shutter).times(1.0, 4, 3)
     sharp = tmp_path / "sharp.usda"
     motion_stage(sharp, None)
     frames = [
-        render(sharp, spp=16, time=t, seed=motion.slice_seed(3, i, 4)).rgb
+        render(sharp, spp=16, time=t, seed=blur.slice_seed(3, i, 4)).rgb
         for i, t in enumerate(times)
     ]
     np.testing.assert_allclose(result.rgb, np.mean(frames, axis=0), atol=1e-5)

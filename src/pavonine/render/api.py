@@ -27,11 +27,13 @@ from pavonine.base.backend import select_variant
 from pavonine.base.errors import InputError
 from pavonine.render import aovs as aov_layers
 from pavonine.render import camera as camera_translator
-from pavonine.render import displacement, instance_primvars, lights, motion, motion_reach, sensors
+from pavonine.render import displacement, instance_primvars, lights, sensors
 from pavonine.render.delegate import StageDelegate, open_stage, render_time
 from pavonine.render.diagnostics import Diagnostics, first_line
 from pavonine.render.imageio import write_exr, write_png
 from pavonine.render.integrator_settings import DEFAULT_SPP, check_variant
+from pavonine.render.motion import blur
+from pavonine.render.motion import reach as motion_reach
 from pavonine.render.options import RenderOptions, check_spp
 from pavonine.render.passes import render_passes
 from pavonine.render.products import (
@@ -117,7 +119,7 @@ def render_products(
     (:mod:`.limits`) are checked before the stage is translated: image sizes and ``spp`` first,
     instance counts as instancers are met. An image with NaN or infinite pixels is an
     :class:`InputError`, never a result. A camera whose shutter is open over an interval blurs
-    what moves in it (:mod:`.motion`).
+    what moves in it (:mod:`.motion.blur`).
     """
     options = (options or RenderOptions()).but(**changes)
     return RenderSession(stage_path, options).render()
@@ -126,7 +128,7 @@ def render_products(
 class RenderSession:
     """A stage synced once into one Mitsuba scene, rendered at its time and then, for frames, at
     others: as a Hydra delegate syncs frames, only the time-varying prims are translated again
-    (:class:`.motion.MotionPlan`) and moved in the scene in place; when something varies that the
+    (:class:`.motion.blur.MotionPlan`) and moved in the scene in place; when something varies that the
     plan cannot move (a light, a lens, changing topology, the framing of a stage without camera),
     the next frame is synced in full. ``sync_seconds`` holds each frame's sync time."""
 
@@ -223,7 +225,7 @@ class RenderSession:
             ) from None
         instance_primvars.bind(scene, delegate.table, delegate.feather_bsdfs)
         self.shutters = [
-            motion.read_shutter(
+            blur.read_shutter(
                 synced.cameras.get(job.camera) if job.camera else None,
                 time_code,
                 job.product.disable_blur,
@@ -231,10 +233,10 @@ class RenderSession:
             )
             for job in jobs
         ]
-        self.frame = motion.frame_time(time_code)
+        self.frame = blur.frame_time(time_code)
         if self.frame is None and any(s.blurred for s in self.shutters):
             diag.warn(str(stage_path), "no numeric time code: rendered without motion blur")
-            self.shutters = [motion.Shutter() for _ in jobs]
+            self.shutters = [blur.Shutter() for _ in jobs]
         self.params = None
         self.plan = None
         blurred = any(s.blurred for s in self.shutters)
@@ -245,7 +247,7 @@ class RenderSession:
                 if job.camera and job.sensor.sensor["type"] != "irradiancemeter"
                 and sensor_ids[i] == f"sensor_{i}"
             ]  # fmt: skip
-            self.plan = motion.plan_motion(delegate, keys, cameras, diag, warn=blurred)
+            self.plan = blur.plan_motion(delegate, keys, cameras, diag, warn=blurred)
             self.plan.scene = scene
             if default_lights and (self.plan.cameras or not self.plan.static):
                 self.plan.fixed.append("(the default lights, placed by the camera and bounds)")
@@ -296,7 +298,7 @@ class RenderSession:
         spp = self.spp if spp is None else spp
         started = _time.perf_counter()
         moved_frame = False
-        if time is not None and motion.frame_time(render_time(self.stage, time)) != self.frame:
+        if time is not None and blur.frame_time(render_time(self.stage, time)) != self.frame:
             if self.plan is None or not self.plan.complete or self.frame is None:
                 self.sync_seconds.pop()  # replaced by this frame's full sync
                 self._build(time)
@@ -341,16 +343,16 @@ class RenderSession:
     ):
         """(image, variance, passes, slice times, motion reach in pixels or None) of one product:
         its shutter's slices, each rendered where the plan moves the scene, samples split across
-        them (:mod:`.motion`)."""
+        them (:mod:`.motion.blur`)."""
         shutter = self.shutters[index]
         sensor = sensor_index(self.scene, self.sensor_ids[index], self.stage_path)
         reach = self._reach(shutter, sensor)
         needed = motion_reach.slices_for(reach)
-        slices = motion.slice_count(
+        slices = blur.slice_count(
             shutter, spp, self.options.motion_slices, self.options.moments, needed
         )
         times = shutter.times(self.frame or 0.0, slices, seed) if shutter.blurred else [self.frame]
-        counts = motion.slice_spp(spp, slices)
+        counts = blur.slice_spp(spp, slices)
         total = variance_sum = None
         passes = 0
         for i, (when, count) in enumerate(zip(times, counts, strict=True)):
@@ -361,7 +363,7 @@ class RenderSession:
                 sensor,
                 self.integrators[index],
                 count,
-                motion.slice_seed(seed, i, slices),
+                blur.slice_seed(seed, i, slices),
                 (job.film_width, job.size[1]),
                 job.size[0],
                 self.options.moments,
@@ -379,9 +381,9 @@ class RenderSession:
         # The scene stays at the last slice's time: whatever renders next retimes it first.
         return total.astype(np.float32), variance_sum, passes, times, reach
 
-    def _reach(self, shutter: motion.Shutter, sensor: int) -> float | None:
+    def _reach(self, shutter: blur.Shutter, sensor: int) -> float | None:
         """How far the moving scene travels in the image while the shutter is open, in pixels
-        (:mod:`.motion_reach`; 0 when nothing varies), by which the slices are chosen; ``None``
+        (:mod:`.motion.reach`; 0 when nothing varies), by which the slices are chosen; ``None``
         (the samples decide) when the slices are asked for or the motion cannot be followed."""
         if not shutter.blurred or self.options.motion_slices is not None or self.plan is None:
             return None

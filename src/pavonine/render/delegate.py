@@ -126,14 +126,14 @@ class StageDelegate:
         self.scene = SyncedScene(up_axis=str(UsdGeom.GetStageUpAxis(stage)))
         self.skinning = skel.Skinning()
         #: (path, kind) of every prim translated at the stage level (kinds; "instance" for an
-        #: instanceable prim): what :mod:`.motion` looks at for time-varying prims
+        #: instanceable prim): what :mod:`.motion.blur` looks at for time-varying prims
         self.synced_prims: list[tuple[str, str]] = []
         self.limits = limits
         self.base_time: Usd.TimeCode | None = None  # see at_time
         #: per translated subtree's root path, the prim path of each of its meshes, in order
         self.subtree_owners: dict[str, list[str]] = {}
         #: when a dict: per gprim path, (surface, triangle mesh, matrix) of each mesh translated
-        #: (:mod:`.deform` learns from them how to move a skinned mesh by its points alone)
+        #: (:mod:`.motion.deform` learns from them how to move a skinned mesh by its points alone)
         self.recorded: dict[str, list] | None = None
 
     def at_time(self, time: Usd.TimeCode, base: Usd.TimeCode | None = None) -> StageDelegate:
@@ -161,7 +161,7 @@ class StageDelegate:
 
     def prototype_prim_shapes(self, root: Usd.Prim, prim: Usd.Prim) -> list:
         """The meshes of ``prim``, a gprim or curves inside the prototype ``root``, at this
-        delegate's time and in prototype space, as the sync made them (:mod:`.motion` moves them
+        delegate's time and in prototype space, as the sync made them (:mod:`.motion.blur` moves them
         in place); none when its transform is unusable at this time (warned)."""
         relative = np.eye(4) if prim == root else self.xforms.relative(prim, root)
         matrix = self._usable(prim, relative)

@@ -170,7 +170,7 @@ def bind(scene, table, feather_bsdfs: Iterable) -> int:
 
 def refresh_frames(scene, table, feather_bsdfs: Iterable, params) -> None:
     """Give the feather BSDFs the instances' frames where ``params`` (``mi.traverse(scene)``,
-    the instances moved in place: :mod:`.motion`) has them now; without it a moved frame's
+    the instances moved in place: :mod:`.motion.blur`) has them now; without it a moved frame's
     BSDF would read its mesh attributes through the first frame's instance frames."""
     from pavonine.render.feather_encoding import INSTANCE_FRAME
 

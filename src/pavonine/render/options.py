@@ -29,7 +29,7 @@ class RenderOptions:
     progress bar; ``products`` the RenderProducts to render (paths or unique names; default all,
     or the first with ``first_only``); ``limits`` the input limits (:mod:`.limits`);
     ``motion_slices`` the time slices of a blurred image (default
-    :data:`~pavonine.render.motion.DEFAULT_SLICES`, at most ``spp``).
+    :data:`~pavonine.render.motion.blur.DEFAULT_SLICES`, at most ``spp``).
     """
 
     spp: int | None = None

@@ -8,7 +8,7 @@ product's authored values override its settings' (UsdRender's inheritance of
 products) renders one beauty image.
 
 ``disableMotionBlur`` and ``instantaneousShutter`` (either) make the product's shutter an instant
-(:mod:`.motion`). Any other authored attribute that is not honoured is warned about, naming it.
+(:mod:`.motion.blur`). Any other authored attribute that is not honoured is warned about, naming it.
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ class ProductSpec:
     pixel_aspect: float = 1.0
     conform: str = "expandAperture"
     disable_dof: bool = False
-    #: ``disableMotionBlur`` or ``instantaneousShutter``: the shutter is an instant (render/motion.py)
+    #: ``disableMotionBlur`` or ``instantaneousShutter``: the shutter is an instant (render/motion/blur.py)
     disable_blur: bool = False
     vars: list[RenderVarSpec] = field(default_factory=list)  # empty: the beauty image alone
 

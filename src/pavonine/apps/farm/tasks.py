@@ -59,7 +59,7 @@ class RenderTask:
     threads: int | None = None
     limits: RenderLimits = DEFAULT_LIMITS  # the client's render ceilings (--max-…)
     max_depth: int | None = None  # --max-depth (None: the stage's integrator settings)
-    motion_slices: int | None = None  # --motion-slices (None: render.motion.DEFAULT_SLICES)
+    motion_slices: int | None = None  # --motion-slices (None: render.motion.blur.DEFAULT_SLICES)
     version: str = ""
     job: int = 0
     shard: int = 0

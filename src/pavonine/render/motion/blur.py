@@ -48,9 +48,10 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from pavonine.base.errors import InputError
-from pavonine.render import deform, instance_primvars
+from pavonine.render import instance_primvars
 from pavonine.render import prim_kinds as kinds
 from pavonine.render.diagnostics import Diagnostics
+from pavonine.render.motion import deform
 
 #: Time slices of a blurred image at most (by default one per MIN_SLICE_SPP samples per pixel).
 DEFAULT_SLICES = 16
@@ -91,7 +92,7 @@ def slice_count(
 ) -> int:
     """Slices of one image: 1 for an instant, else ``slices`` (default: one per
     :data:`MIN_SLICE_SPP` samples, at most :data:`DEFAULT_SLICES`, and no more than the motion
-    ``needed``: :func:`pavonine.render.motion_reach.slices_for`) but no more than ``spp`` (half
+    ``needed``: :func:`pavonine.render.motion.reach.slices_for`) but no more than ``spp`` (half
     of it with ``moments``: each slice needs two passes for a variance)."""
     if not shutter.blurred:
         return 1
@@ -318,7 +319,7 @@ class MotionPlan:
 
 def _move_points(params, view, prim: Usd.Prim, group: str, indices: list[int], fast) -> bool:
     """Move a skinned prim's meshes in the shape group ``group`` by its points alone
-    (:class:`pavonine.render.deform.PointsMove`); false when it cannot (then it is translated)."""
+    (:class:`pavonine.render.motion.deform.PointsMove`); false when it cannot (then it is translated)."""
     import mitsuba as mi
 
     points = view.skinning.points.get(str(prim.GetPath()))

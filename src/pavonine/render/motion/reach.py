@@ -1,7 +1,7 @@
 """How far the moving scene travels in the image while the shutter is open, and so how many time
-slices a blurred image needs (:mod:`.motion`).
+slices a blurred image needs (:mod:`.blur`).
 
-A blurred image is the mean of ``K`` time slices (:mod:`.motion`); a point that travels ``d``
+A blurred image is the mean of ``K`` time slices (:mod:`.blur`); a point that travels ``d``
 pixels over the shutter is drawn at ``K`` places about ``d / K`` apart. Where that step is under
 a pixel the copies merge under the pixel filter into the streak a continuous shutter makes; more
 slices than that add only their cost (each is one more ``mi.render`` call, which traces the
