@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from barb_measures import with_alpha
+from barbule_views import close_up
 
 REPO = Path(__file__).resolve().parents[2]
 ASSET = REPO / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
@@ -37,71 +39,9 @@ HERO_RES, HERO_SPP = (128, 192), 32
 
 def _close_up(folder: Path, geometry: str) -> Path:
     """A camera 8.3 cm in front of the vane (50 mm lens, 24 mm aperture: 4 cm across), the
-    hero scene's sun, no sky: the background is black."""
-    distance = VIEW_CM * 50.0 / 24.0
-    text = f"""#usda 1.0
-(
-    defaultPrim = "World"
-    metersPerUnit = 0.01
-    upAxis = "Y"
-    renderSettingsPrimPath = "/Render/Settings"
-)
-def Xform "World"
-{{
-    def Xform "Feather" (
-        prepend references = @{ASSET}@
-        variants = {{ string geometry = "{geometry}" }}
-    )
-    {{
-    }}
-    def Camera "Camera"
-    {{
-        float focalLength = 50
-        float horizontalAperture = 24
-        float verticalAperture = 24
-        float2 clippingRange = (0.5, 100)
-        double3 xformOp:translate = ({CENTRE[0]}, {CENTRE[1]}, {distance:.4f})
-        uniform token[] xformOpOrder = ["xformOp:translate"]
-    }}
-    def DistantLight "Sun"
-    {{
-        float inputs:angle = 0.53
-        float inputs:intensity = 3.14159
-        bool inputs:normalize = 1
-        float xformOp:rotateY = 25
-        uniform token[] xformOpOrder = ["xformOp:rotateY"]
-    }}
-}}
-def Scope "Render"
-{{
-    def RenderSettings "Settings"
-    {{
-        rel camera = </World/Camera>
-        int2 resolution = ({CLOSE_RES}, {CLOSE_RES})
-        rel products = </Render/Main>
-    }}
-    def RenderProduct "Main"
-    {{
-        rel orderedVars = [</Render/Vars/color>, </Render/Vars/alpha>]
-    }}
-    def Scope "Vars"
-    {{
-        def RenderVar "color"
-        {{
-            uniform token sourceName = "color"
-            uniform token dataType = "color3f"
-        }}
-        def RenderVar "alpha"
-        {{
-            uniform token sourceName = "alpha"
-            uniform token dataType = "float"
-        }}
-    }}
-}}
-"""
-    path = folder / f"close_{geometry}.usda"
-    path.write_text(text)
-    return path
+    hero scene's sun, no sky: the background is black; the product gives colour and alpha."""
+    target = np.array([CENTRE[0], CENTRE[1], 0.0])
+    return with_alpha(close_up(folder, "close", target, VIEW_CM, CLOSE_RES, geometry, ASSET))
 
 
 def _hero(folder: Path, geometry: str) -> Path:
