@@ -36,25 +36,43 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
 
 
-def local_contrast(
-    seeds: tuple[np.ndarray, np.ndarray], on_feather: np.ndarray, window: int
-) -> tuple[float, int]:
-    """(median over the ``window``-pixel squares wholly inside ``on_feather`` of the luminance's
-    static contrast, the number of such squares): two renders of one view with different seeds,
-    per square ``sqrt(max(cov(L0, L1), 0)) / mean(L0, L1)``: the standard deviation of what both
-    seeds show over the mean. Sampling noise is independent between seeds and drops out; the
-    barbs, the ring boundaries and the glitter's grains (fixed to the feather) stay."""
-    a, b = (luminance(rgb) for rgb in seeds)
+def shared_windows(
+    seeds: tuple[np.ndarray, np.ndarray],
+    window: int,
+    inside: np.ndarray | None = None,
+    detail: tuple[np.ndarray, np.ndarray] | None = None,
+) -> list[tuple[float, float]]:
+    """Per ``window``-pixel square (wholly inside ``inside`` when given, with a positive mean):
+    (the covariance of the two seeds' ``detail`` images, their luminances unless given; the mean
+    of the two luminances). Two renders of one view with different seeds: sampling noise is
+    independent between them and drops out of the covariance; what is fixed to the scene stays."""
+    a, b = seeds
+    da, db = detail if detail is not None else seeds
     rows, cols = a.shape[0] // window, a.shape[1] // window
     values = []
     for i in range(rows):
         for j in range(cols):
             cut = np.s_[i * window : (i + 1) * window, j * window : (j + 1) * window]
             mean = 0.5 * (a[cut].mean() + b[cut].mean())
-            if not np.all(on_feather[cut]) or mean <= 0.0:
+            if (inside is not None and not np.all(inside[cut])) or mean <= 0.0:
                 continue
-            cov = np.mean((a[cut] - a[cut].mean()) * (b[cut] - b[cut].mean()))
-            values.append(float(np.sqrt(max(cov, 0.0)) / mean))
+            cov = np.mean((da[cut] - da[cut].mean()) * (db[cut] - db[cut].mean()))
+            values.append((float(cov), float(mean)))
+    return values
+
+
+def local_contrast(
+    seeds: tuple[np.ndarray, np.ndarray], on_feather: np.ndarray, window: int
+) -> tuple[float, int]:
+    """(median over the ``window``-pixel squares wholly inside ``on_feather`` of the luminance's
+    static contrast, the number of such squares): two renders of one view with different seeds,
+    per square ``sqrt(max(cov(L0, L1), 0)) / mean(L0, L1)``: the standard deviation of what both
+    seeds show over the mean (:func:`shared_windows`). The barbs, the ring boundaries and the
+    glitter's grains (fixed to the feather) stay; sampling noise drops out."""
+    luma = tuple(luminance(rgb) for rgb in seeds)
+    values = [
+        np.sqrt(max(cov, 0.0)) / mean for cov, mean in shared_windows(luma, window, on_feather)
+    ]
     return (float(np.median(values)) if values else float("nan")), len(values)
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from barb_measures import luminance, shared_windows
 
 REPO = Path(__file__).resolve().parents[1]
 ASSET = REPO / "assets" / "feathers" / "eye_feather" / "eye_feather.usd"
@@ -120,10 +121,6 @@ def Scope "Render"
     return path
 
 
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    return np.asarray(rgb, dtype=np.float64)[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
-
-
 def shared_detail(first: np.ndarray, second: np.ndarray) -> float:
     """The fine detail two seeds' renders of one view share (module docstring)."""
     from scipy import ndimage
@@ -131,17 +128,8 @@ def shared_detail(first: np.ndarray, second: np.ndarray) -> float:
     a, b = luminance(first), luminance(second)
     ha = a - ndimage.gaussian_filter(a, HIGH_PASS_SIGMA)
     hb = b - ndimage.gaussian_filter(b, HIGH_PASS_SIGMA)
-    rows, cols = a.shape[0] // WINDOW, a.shape[1] // WINDOW
-    values = []
-    for i in range(rows):
-        for j in range(cols):
-            win = np.s_[i * WINDOW : (i + 1) * WINDOW, j * WINDOW : (j + 1) * WINDOW]
-            mean = 0.5 * (a[win].mean() + b[win].mean())
-            if mean <= 0.0:
-                continue
-            cov = np.mean((ha[win] - ha[win].mean()) * (hb[win] - hb[win].mean()))
-            values.append(cov / mean**2)
-    return float(np.median(values))
+    windows = shared_windows((a, b), WINDOW, detail=(ha, hb))
+    return float(np.median([cov / mean**2 for cov, mean in windows]))
 
 
 def render(path: Path, spp: int, seed: int) -> np.ndarray:
