@@ -2,7 +2,7 @@
 lengthen into two lobes trailing past the notch at the rachis tip (a swallow-tail), its barbs
 leaving the rachis, not a solid chevron. Figures measured on the 1024-pixel maps the recipe is
 made from and on the shipped barbs layer (before this shape: shaft half width 0.052, lobe barbs
-76° from the rachis, 33 % of the vane loose, 453 barbs of which 239 fanned from the tip)."""
+76° from the rachis, 33 % of the vane loose, 453 barbs of which 240 rooted at the tip, its fan)."""
 
 from __future__ import annotations
 
