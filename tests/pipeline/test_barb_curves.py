@@ -38,6 +38,7 @@ def test_barb_keys_reach_the_options(tmp_path):
     )
     assert _recipe(tmp_path, text).geometry.barbs == BarbOptions(False, 0.15, 180, 0.1, 0.8)
     assert _recipe(tmp_path, "").geometry.barbs == BarbOptions()
+    assert _recipe(tmp_path, "tip_barbs = 0\n").geometry.barbs.tip_barbs == 0  # no fan
 
 
 @pytest.mark.parametrize(
@@ -51,6 +52,7 @@ def test_barb_keys_reach_the_options(tmp_path):
         ("segment_cm = nan\n", "geometry.barbs.segment_cm", "finite"),
         ("tip_barbs = 2.5\n", "geometry.barbs.tip_barbs", "integer"),
         ("tip_barbs = 2\n", "geometry.barbs.tip_barbs", "[4, 4000]"),
+        ("tip_barbs = -1\n", "geometry.barbs.tip_barbs", "must not be negative"),
         ("width_share = 3\n", "geometry.barbs.width_share", "(0, 2]"),
     ],
 )

@@ -5,7 +5,8 @@ rachis to the silhouette, with the maps sampled along them.
 ``[geometry.barbs] spacing_cm``, *along the rachis, per side*), from the base of the vane up to
 the rachis tip; ``tip_barbs`` barbs per full turn radiate from the tip (paper §3.3.4: until the
 edges of the eyespot the barbs leave the shaft at a slight angle; at the centre of the eyespot,
-the apex of the shaft, they are arranged radially). The maps say where: the *radial zone*
+the apex of the shaft, they are arranged radially; ``tip_barbs = 0``: a feather without an eye,
+whose barbs all leave the rachis, has no fan and no radial zone). The maps say where: the *radial zone*
 (:func:`radial_zone`) is where the direction field of :mod:`pavonine.pipeline.convert.barbs`
 (measured from the displacement map's streaks) agrees with the ray from the tip. A rachis barb
 follows the field by midpoint (RK2) steps of ``segment_cm``, its axis' sign kept continuous,
@@ -128,9 +129,12 @@ def seeds(
     sides = np.concatenate([-np.ones_like(along), np.ones_like(along)])
     start = np.column_stack([sides * np.tile(offset, 2), np.tile(along, 2)])
     outward = np.column_stack([sides, np.zeros_like(sides)])
-    turn = 2.0 * math.pi / layout.tip_barbs
-    count = int((math.pi - 0.5 * turn) // turn)
-    theta = turn * np.arange(-count, count + 1)
+    if layout.tip_barbs == 0:  # no fan: every barb leaves the rachis
+        theta = np.zeros(0)
+    else:
+        turn = 2.0 * math.pi / layout.tip_barbs
+        count = int((math.pi - 0.5 * turn) // turn)
+        theta = turn * np.arange(-count, count + 1)
     tip_gap = rachis.tip_radius_cm / frame.length
     fan_dir = np.column_stack([np.sin(theta), np.cos(theta)])
     fan = np.array([0.0, rachis.top]) + tip_gap * fan_dir
@@ -294,7 +298,10 @@ def build_barbs(
     coverage = coverage_map(alpha, spacing * height)
     start, outward, rachis_barb = seeds(frame, rachis, layout)
     tip = np.array([0.0, rachis.top])
-    zone = radial_zone(field, tip, frame.aspect, spacing * field.shape[0])
+    if layout.tip_barbs == 0:
+        zone = np.zeros(field.shape[:2], dtype=bool)
+    else:
+        zone = radial_zone(field, tip, frame.aspect, spacing * field.shape[0])
     uv0 = _to_uv(start, frame.aspect)
     initial = sample_direction(field, uv0, outward)
     steep = np.abs(initial[:, 0]) >= math.sin(math.radians(MIN_RACHIS_ANGLE_DEG))

@@ -56,7 +56,7 @@ class BarbOptions:
 
     enabled: bool = True  # write the ``geometry = barbs`` variant
     spacing_cm: float = 0.225  # between barbs along the rachis, on each side
-    tip_barbs: int = 240  # barbs radiating from the rachis tip, per full turn
+    tip_barbs: int = 240  # barbs radiating from the rachis tip, per full turn (0: none)
     segment_cm: float = 0.2  # ribbon vertex spacing along a barb
     width_share: float = 1.0  # ribbon width as a share of the local spacing between barbs
 
@@ -286,9 +286,16 @@ def _parse_barbs(path: Path, raw: Any, geometry: GeometryOptions) -> BarbOptions
     key = "geometry.barbs"
     values = _switchable_table(path, raw, key, BarbOptions)
     if "tip_barbs" in raw:
-        count = int(_number(path, f"{key}.tip_barbs", raw["tip_barbs"], integer=True))
-        if not 4 <= count <= MAX_TIP_BARBS:
-            raise _fail(path, f"{key}.tip_barbs", f"must lie in [4, {MAX_TIP_BARBS}], got {count}")
+        count = int(
+            _number(path, f"{key}.tip_barbs", raw["tip_barbs"], positive=False, integer=True)
+        )
+        if count != 0 and not 4 <= count <= MAX_TIP_BARBS:
+            raise _fail(
+                path,
+                f"{key}.tip_barbs",
+                f"must be 0 (no barbs radiate from the tip) or lie in [4, {MAX_TIP_BARBS}], "
+                f"got {count}",
+            )
         values["tip_barbs"] = count
     length = geometry.length_cm
     for name, low in (

@@ -349,43 +349,126 @@ def _yellow(cv: _Canvas) -> dict[str, np.ndarray]:
     return _contour_feather(cv, half_width, 32.0, 0.009, 0.18, 0.25)
 
 
-def _fishtail(cv: _Canvas) -> dict[str, np.ndarray]:
-    """Fishtail (T-shaped) train feather from the fan's edge: a narrow vane along a long rachis
-    that opens at the tip into two lobes with a notch between them, and no ocellus.
+#: The fishtail's rachis tip (feather units, = its recipe's ``rachis_length``): the notch between
+#: its two lobes, where the barbs of both sides end.
+FISHTAIL_RACHIS_TIP = 0.8
+#: Barb spacing along the fishtail's rachis (feather units; 0.225 cm of its 30 cm, the
+#: converter's default ``spacing_cm``), so that sheet streaks and traced barbs agree.
+FISHTAIL_SPACING = 0.0075
+#: A fishtail barb's angle to the rachis: ``_FISHTAIL_SHAFT_DEG`` on the narrow shaft; in the
+#: lobes it leaves at ``_FISHTAIL_ROOT_DEG`` and curves apex-ward to ``_FISHTAIL_LOBE_DEG`` over
+#: ``_FISHTAIL_CURVE`` feather units from the rachis (the swallow-tail: its lobes trail past the
+#: notch).
+_FISHTAIL_SHAFT_DEG = 40.0
+_FISHTAIL_ROOT_DEG = 70.0
+_FISHTAIL_LOBE_DEG = 36.0
+_FISHTAIL_CURVE = 0.12
 
-    Classes from the eye feather's material (Table 1): 1 (green-gold) on the vane, 2 (gold) and
-    3 (bronze) along the lobes' outer rims, as on the metallic green-bronze fishtails of the
-    train's sides (paper §2.1 names the train's colours; the lobes carry no eye).
+
+def _fishtail_opening(root: np.ndarray) -> np.ndarray:
+    """0 on the narrow shaft … 1 in the lobes, by a barb's root height (feather units)."""
+    return _smoothstep(0.5, 0.76, root)
+
+
+def _fishtail_reach(root: np.ndarray) -> np.ndarray:
+    """How far across (feather units) a barb rooted at ``root`` reaches: 0.022–0.035 along the
+    shaft, lengthening to 0.18 (the lobes' tips) just below the notch."""
+    shaft = 0.022 + 0.013 * np.clip(root / 0.45, 0.0, 1.0)
+    return shaft + (0.18 - shaft) * _fishtail_opening(root) ** 0.8
+
+
+def _ramp_integral(x: np.ndarray, width: float) -> np.ndarray:
+    """``∫₀ˣ smoothstep(0, width, ξ) dξ`` in closed form: ``width·(s³ − s⁴/2)`` for ``s = x/width
+    ≤ 1``, then ``width/2 + (x − width)``."""
+    s = np.clip(x / width, 0.0, 1.0)
+    return width * (s**3 - 0.5 * s**4) + np.clip(x - width, 0.0, None)
+
+
+def _fishtail_barbs(cv: _Canvas) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the root height ``t`` on the rachis of the barb through it and that barb's
+    local cotangent ``dy/d|x|`` (its direction: ``atan(1/cot)`` from the rachis).
+
+    A barb is the curve ``y = t + |x|·c₀(t) + u(t)·Δc·R(|x|)``: ``c₀`` the cotangent it leaves the
+    rachis at, ``u`` the opening (:func:`_fishtail_opening`), ``Δc`` the lobe barbs' curving toward
+    the apex and ``R`` :func:`_ramp_integral` (the cotangent ramps over ``_FISHTAIL_CURVE``).
+    ``y`` grows with ``t`` at every ``|x|`` on the vane, so ``t`` is found by bisection.
+    """
+    ax = np.abs(cv.x).astype(np.float64)
+    y = cv.y.astype(np.float64)
+    shaft_cot = 1.0 / math.tan(math.radians(_FISHTAIL_SHAFT_DEG))
+    root_cot = 1.0 / math.tan(math.radians(_FISHTAIL_ROOT_DEG))
+    lobe_cot = 1.0 / math.tan(math.radians(_FISHTAIL_LOBE_DEG))
+    ramp = _ramp_integral(ax, _FISHTAIL_CURVE)
+
+    def height(t: np.ndarray) -> np.ndarray:
+        u = _fishtail_opening(t)
+        return t + ax * (shaft_cot + u * (root_cot - shaft_cot)) + u * (lobe_cot - root_cot) * ramp
+
+    low, high = np.full_like(y, -1.0), np.full_like(y, 1.5)
+    for _ in range(32):
+        mid = 0.5 * (low + high)
+        above = height(mid) > y
+        high = np.where(above, mid, high)
+        low = np.where(above, low, mid)
+    t = 0.5 * (low + high)
+    u = _fishtail_opening(t)
+    curve = _smoothstep(0.0, _FISHTAIL_CURVE, ax)
+    cot = shaft_cot + u * (root_cot - shaft_cot) + u * (lobe_cot - root_cot) * curve
+    return t.astype(np.float32), cot.astype(np.float32)
+
+
+def _fishtail(cv: _Canvas) -> dict[str, np.ndarray]:
+    """Fishtail (T-shaped) train feather from the fan's edge: a long narrow shaft of short loose
+    barbs whose barbs lengthen toward the rachis tip into two trailing lobes, the notch between
+    them at the tip (a swallow-tail), and no ocellus.
+
+    Every pixel belongs to one barb (:func:`_fishtail_barbs`): barbs leave the rachis straight
+    at 40° on the shaft and, in the lobes, at 70° curving apex-ward to 36°, so the lobes' tips
+    reach past the notch; the silhouette is where the barbs end (their reach, each barb's own
+    length drawn ragged), the notch the last barbs below the rachis tip. The barbs hang loose
+    along much of their length, no hooked barbules holding them (Dakin et al. 2016, PLoS ONE 11:
+    e0152759: only the eyespot's barbs lock together; a fishtail has none): loose everywhere on
+    the shaft and on the outer part of every lobe barb, so the outline is a fringe of separate
+    barbs. Classes from the eye feather's material (Table 1): 1 (green-gold) near the rachis,
+    2 (gold) then 3 (bronze) toward the lobe barbs' tips, the metallic green-bronze of the
+    train's sides (paper §2.1); 0 (the loose lower vane) low on the shaft.
     """
     x, y = cv.x, cv.y
-    lobe_half = 0.47 * cv.aspect  # lobe tips almost reach the image edges
-    edge_noise = cv.noise(0.04)
-    opening = _smoothstep(0.52, 0.80, y)  # the vane opens into the T
-    half_width = 0.03 + 0.03 * np.clip(y / 0.5, 0.0, 1.0) + (lobe_half - 0.06) * opening**1.4
-    across = np.clip(np.abs(x) / lobe_half, 0.0, 1.0)
-    top = 0.80 + 0.17 * across**0.8  # the notch: low in the middle, the lobes reach the top
-    signed = np.minimum(half_width - np.abs(x), top - y) + 0.004 * edge_noise
+    tip = FISHTAIL_RACHIS_TIP
+    root, cot = _fishtail_barbs(cv)
+    reach = _fishtail_reach(root)
+    # Each barb its own length: up to 22 % shorter (the ragged, feathery outline).
+    barb = np.clip(np.floor(root / FISHTAIL_SPACING).astype(np.int64), 0, None)
+    jitter = cv.rng.uniform(0.0, 1.0, int(tip / FISHTAIL_SPACING) + 2).astype(np.float32)
+    reach = reach * (1.0 - 0.22 * jitter[np.clip(barb, 0, len(jitter) - 1)])
+    sin_a = 1.0 / np.sqrt(1.0 + cot * cot)  # sine of the barb's angle to the rachis
+    across = np.abs(x)
+    # Signed distance (feather units, > 0 inside): to the barb tips, to the notch (the top
+    # barbs, root at the rachis tip), to the base.
+    signed = np.minimum(reach - across, (tip - root) * sin_a)
     signed = np.minimum(signed, np.minimum(y - 0.004, 0.996 - y))
     solid = cv.coverage(signed)
 
     wobble = 0.3 * cv.noise(0.06)
-    barb_angle = 36.0 + 44.0 * _smoothstep(0.45, 0.85, y)  # lobe barbs run almost across
-    ridge, fade = _straight_barbs(cv, barb_angle, 0.008, wobble)
-    ridge = _filtered(ridge, fade)
-    loose = 1.0 - _smoothstep(0.25, 0.45, y)  # loose barbs low on the shaft
-    alpha = _fringe(cv, ridge, solid, 0.02 + 0.04 * loose)
+    ridge = _ridges(root / FISHTAIL_SPACING + wobble)
+    ridge = _filtered(ridge, _resolvable(FISHTAIL_SPACING * sin_a / cv.pixel))
+    share = np.clip(across / np.maximum(reach, 1e-6), 0.0, 1.0)  # along the barb, 0 → 1
+    loose = np.maximum(1.0 - _smoothstep(0.4, 0.6, root), _smoothstep(0.3, 0.6, share))
+    alpha = _fringe(cv, ridge, solid, 0.015 + 0.025 * loose)
+    alpha = alpha * (1.0 - 0.6 * loose * (1.0 - np.clip(ridge * 1.8, 0.0, 1.0)))
 
-    rim = np.clip(top - y, 0.0, None) + 0.006 * cv.noise(0.03)
-    klass = np.where(y > 0.30, 1, 0)
-    klass = np.where((opening > 0.3) & (rim < 0.06), 2, klass)
-    klass = np.where((opening > 0.3) & (rim < 0.025) & (across > 0.35), 3, klass)
+    opening = _fishtail_opening(root)
+    band = share + 0.04 * cv.noise(0.03)
+    klass = np.where(root > 0.3, 1, 0)
+    klass = np.where((opening > 0.3) & (band > 0.45), 2, klass)
+    klass = np.where((opening > 0.3) & (band > 0.72), 3, klass)
     klass = np.where(solid > 0, klass, 0)
 
     gradation = _gradation(cv, 0.5, 0.6, 0.04, 0.08)
-    angle = _barbule_angle(cv, 33.0, 6.0, cv.noise(0.06), 0.8)  # rachis_length of its recipe
+    angle = _barbule_angle(cv, 33.0, 6.0, cv.noise(0.06), tip)
     grain = cv.noise(0.012)
     displacement = solid * np.clip(0.76 * ridge + 0.14 + 0.05 * grain, 0.0, 1.0)
-    melanin = _melanin_fade(cv, solid, 0.04, 0.2, cv.noise(0.05)) * (1.0 - 0.5 * loose)
+    melanin = _melanin_fade(cv, solid, 0.03, 0.2, cv.noise(0.05)) * (1.0 - 0.4 * loose)
     maps = (alpha, ocellar_grey(klass), gradation, angle, displacement, melanin)
     return dict(zip(MAP_NAMES, maps, strict=True))
 
