@@ -188,14 +188,24 @@ def _mixed_lab(share: float, structure: np.ndarray, brown: np.ndarray) -> np.nda
     return _lab(share * structure + (1.0 - share) * brown)
 
 
-def test_eye_feather_fringe_is_bronze_green():
+def _eye_maps(source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(alpha, ocellar, melanin) of the painted eye maps (seed 1, 256 px) or the shipped ones."""
+    if source == "painted":
+        maps = generate_maps("eye", 256, 1)  # the shipped recipe's painter (seed 1), smaller
+        return maps["alpha"], maps["ocellar"], maps["melanin"]
+    if not (SHIPPED_MAPS / "melanin.png").exists():
+        pytest.skip(f"no shipped eye feather maps at {SHIPPED_MAPS}")
+    return tuple(read_map(SHIPPED_MAPS / f"{n}.png", n) for n in ("alpha", "ocellar", "melanin"))
+
+
+@pytest.mark.parametrize("source", ["painted", "shipped"])
+def test_eye_feather_fringe_is_bronze_green(source):
     """The BSDF mixes ``w R + (1 - w) ρ_melanin`` (lobe gain 1), ``w`` the melanin map's structural
     share averaged over the fringe weighted by the alpha map (the barbs' coverage there): the
     fringe is class 1 above the lower vane (v > 0.45) with alpha in (0.05, 0.95), the vane class 1
-    there with alpha 1. The painted maps (seed 1, the shipped recipe's) at 256 px."""
-    maps = generate_maps("eye", 256, 1)
-    alpha, melanin = maps["alpha"], maps["melanin"]
-    klass = ocellar_class(maps["ocellar"])
+    there with alpha 1."""
+    alpha, ocellar, melanin = _eye_maps(source)
+    klass = ocellar_class(ocellar)
     rows = alpha.shape[0]
     v = 1.0 - (np.arange(rows)[:, None] + 0.5) / rows + np.zeros_like(alpha)
     disc = (klass == 1) & (v > 0.45)
