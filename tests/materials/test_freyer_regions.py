@@ -11,7 +11,9 @@ What is checked, and where it comes from:
   colour. The article's measured spectra (its figures) could not be read from here, so no
   measured peak wavelength or reflectance is asserted;
 * the heart, which the article calls black-violet: darker than the blue-green ring, both as a
-  structure and as the shipped eye feather mixes it with melanin brown (paper §3.3.6).
+  structure and as the shipped eye feather mixes it with melanin brown (paper §3.3.6);
+* the eye's fringe (its loose barb tips beyond the outer ring): bronze-green as the painted maps
+  mix it with melanin brown, not tan (issue 33).
 
 Spectra: ``stack.structure_reflectance`` (effective-medium transfer matrix, literature melanin
 and keratin, air-keratin surface included) at normal incidence, 360-830 nm every 2 nm; colour
@@ -169,3 +171,56 @@ def test_eye_feather_keeps_the_heart_black_violet(source):
     (_, heart_structure, heart), (_, _, ring) = seen["black-violet"], seen["blue-green"]
     assert heart <= ring - SHIPPED_HEART_DARKER_BY, seen
     assert heart <= heart_structure + MIXING_MAY_LIGHTEN_BY, seen
+
+
+#: The eye's fringe (issue 33): the loose barb tips beyond the outer ring, class 1 (brass-green)
+#: where the alpha map is partial, must be bronze-green to golden-green as the maps mix it with
+#: melanin brown: hue between bronze-yellow and the brass-green structure's own 127° (the brown
+#: alone is 66°), and about as saturated as the vane inside it (C* 52 there). The maps that faded
+#: the fringe's share to 0.2 mixed it to h 97°, C* 29 (tan).
+FRINGE_HUE_DEG = (105.0, 135.0)
+FRINGE_MIN_CHROMA = 40.0
+#: The fringe may differ from the vane just inside it by at most this (CIE ΔE2000).
+FRINGE_FROM_VANE_DE = 5.0
+
+
+def _mixed_lab(share: float, structure: np.ndarray, brown: np.ndarray) -> np.ndarray:
+    return _lab(share * structure + (1.0 - share) * brown)
+
+
+def _eye_maps(source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(alpha, ocellar, melanin) of the painted eye maps (seed 1, 256 px) or the shipped ones."""
+    if source == "painted":
+        maps = generate_maps("eye", 256, 1)  # the shipped recipe's painter (seed 1), smaller
+        return maps["alpha"], maps["ocellar"], maps["melanin"]
+    if not (SHIPPED_MAPS / "melanin.png").exists():
+        pytest.skip(f"no shipped eye feather maps at {SHIPPED_MAPS}")
+    return tuple(read_map(SHIPPED_MAPS / f"{n}.png", n) for n in ("alpha", "ocellar", "melanin"))
+
+
+@pytest.mark.parametrize("source", ["painted", "shipped"])
+def test_eye_feather_fringe_is_bronze_green(source):
+    """The BSDF mixes ``w R + (1 - w) ρ_melanin`` (lobe gain 1), ``w`` the melanin map's structural
+    share averaged over the fringe weighted by the alpha map (the barbs' coverage there): the
+    fringe is class 1 above the lower vane (v > 0.45) with alpha in (0.05, 0.95), the vane class 1
+    there with alpha 1."""
+    alpha, ocellar, melanin = _eye_maps(source)
+    klass = ocellar_class(ocellar)
+    rows = alpha.shape[0]
+    v = 1.0 - (np.arange(rows)[:, None] + 0.5) / rows + np.zeros_like(alpha)
+    disc = (klass == 1) & (v > 0.45)
+    structure = _reflectance("brass-green")
+    brown = melanin_albedo(preset(PRESET).melanin_color, WAVELENGTHS_NM)
+    seen = {}
+    for zone, mask in (
+        ("fringe", disc & (alpha > 0.05) & (alpha < 0.95)),
+        ("vane", disc & (alpha >= 0.999)),
+    ):
+        assert mask.sum() > 500, zone
+        share = float((melanin[mask] * alpha[mask]).sum() / alpha[mask].sum())
+        seen[zone] = (share, _mixed_lab(share, structure, brown))
+    fringe, vane = seen["fringe"][1], seen["vane"][1]
+    hue = float(np.degrees(np.arctan2(fringe[2], fringe[1])) % 360.0)
+    assert FRINGE_HUE_DEG[0] <= hue <= FRINGE_HUE_DEG[1], (hue, seen)
+    assert _chroma(fringe) >= FRINGE_MIN_CHROMA, seen
+    assert colour.delta_e2000(fringe, vane) <= FRINGE_FROM_VANE_DE, seen

@@ -221,6 +221,11 @@ def _barbule_angle(
 
 # --------------------------------------------------------------------------- kinds
 
+#: The eye's fringe (its barb tips beyond the outer ring): the structural share falls to this
+#: share of the vane's at the silhouette, within this width (feather units) of it.
+EYE_FRINGE_FLOOR = 0.8
+EYE_FRINGE_WIDTH = 0.02
+
 
 def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     """Train eye feather: ocellus near the apex, loose barbs below (paper §2.1, §3.3)."""
@@ -270,7 +275,16 @@ def _eye(cv: _Canvas) -> dict[str, np.ndarray]:
     angle = _barbule_angle(cv, 32.0, 6.0, cv.noise(0.06), cy, radial_weight)
     grain = cv.noise(0.01)
     displacement = solid * np.clip(0.78 * ridge + 0.12 + 0.05 * grain + 0.05 * edge_noise, 0, 1)
-    melanin = _melanin_fade(cv, solid, 0.05, 0.15, cv.noise(0.05))
+    # The lower vane's loose barbs fade to melanin brown at the edge (paper §3.3.6). The eye's
+    # fringe, the barb tips beyond its outer ring, is the metallic brass-green of the vane
+    # (Freyer & Stavenga 2020's class-1 region) right out to the tips: there the share only
+    # dips to EYE_FRINGE_FLOOR of the vane's within EYE_FRINGE_WIDTH. The full fade
+    # there (floor 0.15 within 0.05) mixed the tips into tan (docs/model.md, "The eye's fringe").
+    noise = cv.noise(0.05)
+    lower_fade = _melanin_fade(cv, solid, 0.05, 0.15, noise)
+    fringe_fade = _melanin_fade(cv, solid, EYE_FRINGE_WIDTH, EYE_FRINGE_FLOOR, noise)
+    disc = _smoothstep(0.40, 0.50, y)
+    melanin = disc * fringe_fade + (1.0 - disc) * lower_fade
     melanin = melanin * (1.0 - 0.35 * loose)
     # The heart keeps the full structural share, like the rings: its black-violet is the dark
     # 443 nm band of Freyer & Stavenga's structure itself. Lowering the share there mixed in the
