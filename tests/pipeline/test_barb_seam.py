@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from barb_layer import curve_attributes
 
+from pavonine.pipeline.convert.barb_form import LIFT_RAMP_CM, lift_fan, seam_step_cm
 from pavonine.pipeline.convert.surface import FeatherFrame
 
 REPO = Path(__file__).resolve().parents[2]
@@ -63,10 +64,55 @@ def test_the_seam_step_is_the_depth_difference_across_the_meeting_line():
     assert seam_step(grid, np.zeros(len(grid)), ~upper)[0] == 0.0
 
 
+def _fan_over_combs():
+    """Fan barbs running down x = const from roots at y = 6 to y = 0.05 (``s = 6 − y``), rachis
+    barbs below y = 0: the fan lies 0.3 cm deeper (``out``, toward −n) past its roots."""
+    x = np.linspace(-2.0, 2.0, 21)
+    fan_y = np.linspace(6.0, 0.05, 120)
+    rachis_y = np.linspace(-3.0, -0.05, 60)
+    fan = np.array([(a, b, 0.0) for a in x for b in fan_y])
+    rachis = np.array([(a, b, 0.0) for a in x for b in rachis_y])
+    points = np.concatenate([fan, rachis])
+    rachis_vertex = np.arange(len(points)) >= len(fan)
+    s = np.where(rachis_vertex, 0.0, 6.0 - points[:, 1])
+    out = np.where(rachis_vertex, 0.0, np.where(s > 0.0, 0.3, 0.0))
+    return points, s, out, rachis_vertex
+
+
+def test_the_fan_is_lifted_by_the_seams_step_and_keeps_its_roots():
+    points, s, out, rachis_vertex = _fan_over_combs()
+    assert seam_step_cm(points, s, out, rachis_vertex) == pytest.approx(0.3)
+    for share in (1.0, 0.5):
+        lifted = lift_fan(points, s, out, rachis_vertex, share)
+        past = ~rachis_vertex & (s >= LIFT_RAMP_CM)
+        assert np.allclose(lifted[past], 0.3 - share * 0.3)
+        assert np.array_equal(lifted[rachis_vertex], out[rachis_vertex])  # the rachis' barbs stay
+        assert np.all(lifted[~rachis_vertex & (s == 0.0)] == 0.0)  # roots stay on the shaft
+    assert seam_step_cm(points, s, lift_fan(points, s, out, rachis_vertex, 1.0), rachis_vertex) == (
+        pytest.approx(0.0, abs=1e-12)
+    )
+    # Rachis barbs beside the fan's roots (at the rachis tip, both kinds start on the shaft,
+    # more pairs there than at the seam) do not count: fan vertices within SEAM_FAN_FROM_CM of
+    # their roots are left out.
+    tip = np.array(
+        [(a, b, 0.0) for a in np.linspace(-2.0, 2.0, 21) for b in np.linspace(6.1, 9, 150)]
+    )
+    at_tip = np.concatenate([points, tip])
+    tip_vertex = np.concatenate([rachis_vertex, np.ones(len(tip), bool)])
+    tip_s, tip_out = (
+        np.concatenate([s, np.zeros(len(tip))]),
+        np.concatenate([out, np.zeros(len(tip))]),
+    )
+    near_root = ~tip_vertex & (tip_s < 1.0)
+    tip_out[near_root] = 0.0
+    assert seam_step_cm(at_tip, tip_s, tip_out, tip_vertex) == pytest.approx(0.3)
+
+
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 33 known defect (docs/pipeline.md): the fan's vertices lie 0.40 cm behind the "
-    "rachis barbs' where they meet; every fix tried so far took the hero's zone 1 past ΔE2000 3",
+    reason="issue 33 known defect (docs/pipeline.md): the fan lies deeper than the rachis barbs "
+    "where they meet, 0.40 cm before the fan's lift, 0.066 cm with it (the step varies along "
+    "the seam; one lift for the whole fan)",
 )
 def test_the_eyes_barbs_meet_below_it_without_a_step():
     geometry = tomllib.loads(RECIPE.read_text())["geometry"]
