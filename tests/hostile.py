@@ -201,6 +201,7 @@ RECIPE_KEYS = [
     "geometry.form.length_jitter",
     "geometry.form.clump",
     "geometry.form.clump_size",
+    "geometry.form.fan_lift",
     "geometry.form.seed",
     "bake.resolution",
     "unknown",

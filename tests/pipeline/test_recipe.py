@@ -243,10 +243,10 @@ def test_form_keys_reach_the_options(tmp_path):
     text = MINIMAL + (
         "[geometry.form]\nenabled = false\ncamber = 0.1\nbow = 0\nbow_out = 0.05\n"
         "droop_deg = 30\nroot_jitter = 0.2\nlength_jitter = 0.25\nclump = 0.3\n"
-        "clump_size = 6\nseed = 7\n"
+        "clump_size = 6\nseed = 7\nfan_lift = 0.5\n"
     )
     form = parse_recipe(_write(tmp_path, text)).geometry.form
-    assert form == FormOptions(False, 0.1, 0.0, 0.05, 30.0, 0.2, 0.25, 0.3, 6.0, 7)
+    assert form == FormOptions(False, 0.1, 0.0, 0.05, 30.0, 0.2, 0.25, 0.3, 6.0, 7, 0.5)
     assert parse_recipe(_write(tmp_path, MINIMAL)).geometry.form == FormOptions()
 
 
@@ -268,6 +268,9 @@ def test_form_keys_reach_the_options(tmp_path):
         ('clump = "0.5"', "geometry.form.clump", "expected a number"),
         ("clump_size = 0.5", "geometry.form.clump_size", "must lie in [1, 20]"),
         ("clump_size = inf", "geometry.form.clump_size", "finite"),
+        ("fan_lift = 2", "geometry.form.fan_lift", "must lie in [0, 1], got 2"),
+        ("fan_lift = nan", "geometry.form.fan_lift", "finite"),
+        ('fan_lift = "1"', "geometry.form.fan_lift", "expected a number"),
         ("clump_size = []", "geometry.form.clump_size", "expected a number"),
         ("seed = -1", "geometry.form.seed", "must not be negative"),
         ("seed = 1.5", "geometry.form.seed", "integer"),

@@ -41,7 +41,17 @@ normal, ``w`` the feather's half width in cm):
    bending more toward its free tip; where the barbules hook in again, ``λ = 0``, it runs
    parallel to the vane). The default 50° is an estimate.
 
-6. **Clumps** (``clump``, ``clump_size``): the fringe's loose tips gather into clumps
+6. **The fan's lift** (``fan_lift``): camber and bow grow with each barb's own arc length, so
+   where the tip's fan (roots at the rachis tip, 5–6 cm long there) meets the rachis' barbs below
+   the eye it lies deeper than they do (issue 33, "a seam below the eye"). The whole fan then
+   moves toward ``+n`` by ``fan_lift`` times that step, :func:`seam_step_cm` (the median depth
+   difference between fan and rachis-barb vertices within :data:`SEAM_NEAR_CM` of each other,
+   fan vertices more than :data:`SEAM_FAN_FROM_CM` from their roots), faded in over the first
+   :data:`LIFT_RAMP_CM` of each barb so that its root stays on the rachis tip. One lift for every
+   fan barb: barbs beside each other stay at one depth (a lift varying across the fan casts
+   shadows and moves the rings' colour at the hero view; docs/pipeline.md). 0 (the default)
+   leaves the fan where camber puts it.
+7. **Clumps** (``clump``, ``clump_size``): the fringe's loose tips gather into clumps
    (:mod:`pavonine.pipeline.convert.barb_clumps`), in the vane, before 3.–5. move the points
    out of it; its draws come after every other, so the rest of the form does not depend on it.
 
@@ -72,6 +82,13 @@ CLOSED_COVERAGE = 0.95
 DROOP_SHARE = 0.5
 #: Largest root shift, in barb spacings (neighbouring barbs keep their order).
 MAX_ROOT_SHIFT = 0.4
+#: Fan and rachis-barb vertices this close (cm, in the vane's xy plane) meet at the seam.
+SEAM_NEAR_CM = 0.4
+#: Fan vertices nearer their root than this (cm) are left out of the seam's step: at the rachis
+#: tip the fan's roots neighbour the highest rachis barbs' roots, both on the shaft.
+SEAM_FAN_FROM_CM = 2.0
+#: Arc length (cm) over which a fan barb's lift fades in from its root (smoothstep).
+LIFT_RAMP_CM = 0.5
 
 
 @dataclass(frozen=True)
@@ -88,6 +105,7 @@ class FormOptions:
     clump: float = 0.6  # share of the way a loose fringe tip moves toward its clump's guide
     clump_size: float = 4.0  # mean barbs per clump
     seed: int | None = None  # None: the asset's seed (CRC-32 of its name)
+    fan_lift: float = 0.0  # share of the seam's depth step the whole tip fan moves forward
 
 
 #: Range of every number key of ``[geometry.form]``: key → (low, high), both included.
@@ -100,6 +118,7 @@ FORM_RANGES: dict[str, tuple[float, float]] = {
     "length_jitter": (0.0, 0.9),
     "clump": (0.0, 1.0),
     "clump_size": (1.0, 20.0),
+    "fan_lift": (0.0, 1.0),
 }
 
 
@@ -240,8 +259,39 @@ def apply_form(
     side = _normalise(np.cross(normal, curves.tangent))
     toward_tip = np.sum(side * along, axis=1, keepdims=True) * side
     points += (options.bow * s**2 / half_width_cm)[:, None] * toward_tip
+    if options.fan_lift > 0.0:
+        out = lift_fan(points, s, out, rachis_barb[barb], options.fan_lift)
     points -= out[:, None] * normal
     return _reframe(replace(curves, points=points), counts)
+
+
+def seam_step_cm(
+    points: np.ndarray, s: np.ndarray, depth: np.ndarray, rachis_vertex: np.ndarray
+) -> float:
+    """How much deeper (cm, along ``depth``) the fan lies than the rachis' barbs where they
+    meet: the median of ``depth[fan] − depth[rachis]`` over the pairs within
+    :data:`SEAM_NEAR_CM` in the xy plane, fan vertices at arc length ``s`` above
+    :data:`SEAM_FAN_FROM_CM`; 0 where they do not meet."""
+    from scipy.spatial import cKDTree
+
+    rachis = np.flatnonzero(rachis_vertex)
+    fan = np.flatnonzero(~rachis_vertex & (s > SEAM_FAN_FROM_CM))
+    if len(rachis) == 0 or len(fan) == 0:
+        return 0.0
+    near = cKDTree(points[rachis, :2]).query_ball_point(points[fan, :2], SEAM_NEAR_CM)
+    steps = [depth[i] - depth[rachis[js]] for i, js in zip(fan, near, strict=True) if js]
+    return float(np.median(np.concatenate(steps))) if steps else 0.0
+
+
+def lift_fan(
+    points: np.ndarray, s: np.ndarray, out: np.ndarray, rachis_vertex: np.ndarray, share: float
+) -> np.ndarray:
+    """The offsets toward ``−n`` (cm) with every fan vertex moved forward by ``share`` times
+    :func:`seam_step_cm`, faded in over the first :data:`LIFT_RAMP_CM` of its barb
+    (smoothstep of ``s``): step 6. of the module docstring."""
+    lift = share * seam_step_cm(points, s, out, rachis_vertex)
+    x = np.clip(s / LIFT_RAMP_CM, 0.0, 1.0)
+    return out - np.where(rachis_vertex, 0.0, lift * x * x * (3.0 - 2.0 * x))
 
 
 def _segment_share(s: np.ndarray, counts: np.ndarray) -> np.ndarray:
