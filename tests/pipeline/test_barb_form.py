@@ -83,7 +83,7 @@ def test_the_shipped_eye_feathers_barbs_have_a_form():
 
 def _comb(barbs: int = 6, n: int = 12):
     """Straight barbs in the plane z = 0 leaving x = 0 every 0.2 cm up y, 3 cm long."""
-    from pavonine.pipeline.convert.barb_curves import BarbCurves
+    from pavonine.pipeline.convert.barb_polylines import BarbCurves
 
     s = np.linspace(0.0, 3.0, n)
     points = np.concatenate(

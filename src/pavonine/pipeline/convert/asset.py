@@ -411,7 +411,7 @@ def write_asset(
 
     ``looks`` (:class:`pavonine.pipeline.shading.looks.Looks`, after it wrote its files into
     ``folder``) adds the MaterialX networks and the baked previews; ``barbs``
-    (:class:`pavonine.pipeline.convert.barb_curves.BarbCurves`) the ``geometry = barbs`` variant.
+    (:class:`pavonine.pipeline.convert.barb_polylines.BarbCurves`) the ``geometry = barbs`` variant.
     """
     names = AssetNames(name)
     map_paths = write_maps(maps, folder)

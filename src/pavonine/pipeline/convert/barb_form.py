@@ -64,14 +64,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pavonine.pipeline.convert.barb_clumps import clump, clump_guides
-
-if TYPE_CHECKING:
-    from pavonine.pipeline.convert.barb_curves import BarbCurves
+from pavonine.pipeline.convert.barb_polylines import BarbCurves, polyline_tangents
 
 #: Coverage below which a barb is loose (as :data:`pavonine.pipeline.convert.barb_layer.
 #: LOOSE_COVERAGE`: free filaments) and above which it is interlocked.
@@ -303,8 +300,6 @@ def _segment_share(s: np.ndarray, counts: np.ndarray) -> np.ndarray:
 
 def _reframe(curves: BarbCurves, counts: np.ndarray) -> BarbCurves:
     """Tangents of the moved polylines, normals made orthogonal to them."""
-    from pavonine.pipeline.convert.barb_curves import polyline_tangents
-
     tangent = polyline_tangents(curves.points, counts)
     normal = curves.normals - np.sum(curves.normals * tangent, axis=1, keepdims=True) * tangent
     return replace(curves, tangent=tangent, normals=_normalise(normal))

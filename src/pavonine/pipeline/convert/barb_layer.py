@@ -22,7 +22,7 @@ import numpy as np
 
 from pavonine.base.truncation import save_whole
 from pavonine.materials.parameters import FeatherParameters
-from pavonine.pipeline.convert.barb_curves import BarbCurves
+from pavonine.pipeline.convert.barb_polylines import BarbCurves
 from pavonine.schemas.primvars import (
     BARB_ID_PRIMVAR,
     BARBULES_PRIMVAR,

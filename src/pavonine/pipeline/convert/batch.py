@@ -38,8 +38,9 @@ from pavonine.pipeline.convert.asset import (
     staging_folder,
     write_asset,
 )
-from pavonine.pipeline.convert.barb_curves import BarbCurves, build_barbs
+from pavonine.pipeline.convert.barb_curves import build_barbs
 from pavonine.pipeline.convert.barb_layer import barb_colors
+from pavonine.pipeline.convert.barb_polylines import BarbCurves
 from pavonine.pipeline.convert.mesh import RACHIS_SHARE, MeshData, build_base, build_lod
 from pavonine.pipeline.convert.rachis import RachisSpec
 from pavonine.pipeline.convert.recipe import Recipe, asset_seed, parameter_key, parse_recipe
