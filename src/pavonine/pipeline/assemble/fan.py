@@ -54,7 +54,7 @@ class Fan:
         }
 
 
-def _quaternion(axis: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+def quaternions(axis: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
     """(N, 4) quaternions (w, x, y, z) of rotations by ``angle_rad`` about a fixed unit ``axis``."""
     half = np.asarray(angle_rad) / 2.0
     q = np.zeros((len(half), 4))
@@ -63,7 +63,7 @@ def _quaternion(axis: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
     return q
 
 
-def _multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def multiply_quaternions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product of (N, 4) quaternions: the rotation ``b`` first, then ``a``."""
     w1, x1, y1, z1 = a.T
     w2, x2, y2, z2 = b.T
@@ -147,7 +147,9 @@ def layout(recipe: TrainRecipe) -> Fan:
     # USD applies scale, then orientation, then translation (p' = p·S·R + t, row vectors):
     # the twist about the feather's own axis first, then the tilt, then the turn in the fan.
     x, y, z = np.eye(3)
-    q = _multiply(_quaternion(z, -theta), _multiply(_quaternion(x, tilt), _quaternion(y, twist)))
+    q = multiply_quaternions(
+        quaternions(z, -theta), multiply_quaternions(quaternions(x, tilt), quaternions(y, twist))
+    )
     positions = np.stack(
         [p["radius"] * np.sin(theta), p["radius"] * np.cos(theta), p["depth"]], axis=1
     )

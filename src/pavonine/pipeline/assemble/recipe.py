@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from pavonine.base.limits import SEED_RANGE
-from pavonine.pipeline.assemble.rattle import Rattle, parse_rattle
+from pavonine.pipeline.assemble.rattle_recipe import Rattle, parse_rattle
 from pavonine.pipeline.convert.recipe import (
     _NAME_RE,
     _check_keys,
