@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
-from pavonine.render.passes import LANES_PER_PASS, render_pass, samples_per_pass
+from pavonine.render.passes import LANES_PER_PASS, accumulate, render_pass, samples_per_pass
 
 
 def test_a_full_size_train_frame_is_two_passes_not_sixteen():
@@ -19,6 +20,22 @@ def test_passes_divide_spp_and_stay_within_the_lane_budget():
             per_pass = samples_per_pass(spp, pixels, moments=False)
             assert spp % per_pass == 0
             assert per_pass == 1 or per_pass * pixels <= LANES_PER_PASS
+
+
+def test_accumulating_float32_passes_gives_the_float64_sums_bit_for_bit():
+    """The first pass is held as float32, later ones added into a float64 sum in place: the same
+    doubles as summing float64 copies of every pass (an independent sum, in the same order)."""
+    rng = np.random.default_rng(7)
+    images = [rng.lognormal(0.0, 3.0, (5, 7, 4)).astype(np.float32) for _ in range(3)]
+    total = None
+    for count, image in enumerate(images, start=1):
+        total = accumulate(total, image)
+        expected = images[0].astype(np.float64)
+        for later in images[1:count]:
+            expected = expected + later.astype(np.float64)
+        assert total.dtype == (np.float32 if count == 1 else np.float64)
+        assert total.astype(np.float64).tobytes() == expected.tobytes()
+    assert total.tobytes() != np.add(images[0], images[1] + images[2]).astype(np.float64).tobytes()
 
 
 def test_moments_still_get_at_least_sixteen_passes():

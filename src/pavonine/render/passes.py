@@ -63,18 +63,15 @@ def render_passes(
         pass_seed = (seed * SEED_STRIDE + index) & 0xFFFFFFFF
         image = render_pass(mi, scene, sensor, integrator, spp_pass, pass_seed, trace_loops_once)
         if resample is not None:
-            image = np.einsum("jk,ikc->ijc", resample, image)
-        if total is None:
-            total = image
-        else:
-            total += image  # in place: one frame-sized float64 array less at the peak
+            image = np.einsum("jk,ikc->ijc", resample, image.astype(np.float64))
+        total = accumulate(total, image)
         if moments:
-            beauty = image[..., :3]
+            beauty = image[..., :3].astype(np.float64)
             total_sq = beauty * beauty if total_sq is None else total_sq + beauty * beauty
         del image
         advance(spp_pass)
     mean = total
-    mean /= passes  # in place, the same IEEE division as ``total / passes``
+    mean /= passes  # in place, the same IEEE division as ``total / passes`` (÷ 1: exact)
     variance = None
     if total_sq is not None:
         sample_var = np.maximum(total_sq / passes - mean[..., :3] ** 2, 0.0) * passes / (passes - 1)
@@ -82,10 +79,27 @@ def render_passes(
     return mean.astype(np.float32), variance, passes
 
 
+def accumulate(total: np.ndarray | None, image: np.ndarray) -> np.ndarray:
+    """``total + image`` with the float64 sums of the pass images, at the least memory.
+
+    The first pass's image is kept as it comes (float32 from the film in single-precision
+    variants: every float32 is exact in float64, so holding it rather than a float64 copy changes
+    no sum); from the second pass on the sum is float64 and is added into in place, NumPy
+    converting ``image`` to float64 in buffered chunks rather than as a whole frame-sized copy. Each sum is the same IEEE double addition of the same values as
+    adding float64 copies, so the image is bit for bit what it was with float64 passes.
+    """
+    if total is None:
+        return image
+    if total.dtype == np.float64:
+        return np.add(total, image, out=total)
+    return np.add(total, image, dtype=np.float64)
+
+
 def render_pass(
     mi, scene, sensor: int, integrator, spp: int, seed: int, trace_loops_once: bool = False
 ) -> np.ndarray:
-    """One ``mi.render`` pass as H×W×C float64, with Python's cyclic garbage collector paused.
+    """One ``mi.render`` pass as an H×W×C array of its own in the film's precision (float32 in
+    single-precision variants), with Python's cyclic garbage collector paused.
 
     Dr.Jit traces every registered BSDF instance when it records a virtual call; a Python-defined
     BSDF (the feather) of an earlier, unreachable scene freed by a collector run *during* that
@@ -122,7 +136,8 @@ def render_pass(
     finally:
         if enabled:
             gc.enable()
-    return np.asarray(image, dtype=np.float64)
+    pixels = np.array(image)  # a copy: Dr.Jit's buffer is reused by the next pass
+    return pixels if pixels.dtype in (np.float32, np.float64) else pixels.astype(np.float64)
 
 
 def interrupted(exc: BaseException) -> bool:
