@@ -32,7 +32,11 @@ def _recipe(folder: Path) -> Path:
     lines = [f'name = "{data["name"]}"', "[maps]"]
     lines += [f'{k} = "{(RECIPE.parent / v).as_posix()}"' for k, v in data["maps"].items()]
     lines += ["[material]", f'preset = "{data["material"]["preset"]}"', "[geometry]"]
-    lines += [f"{k} = {v}" for k, v in data["geometry"].items() if k != "lod"]
+    geometry = data["geometry"]
+    lines += [f"{k} = {v}" for k, v in geometry.items() if not isinstance(v, dict)]
+    for table, values in geometry.items():
+        if isinstance(values, dict) and table != "lod":
+            lines += [f"[geometry.{table}]"] + [f"{k} = {v}" for k, v in values.items()]
     lines += ["[geometry.lod]", "high = 30000", "medium = 8000", "low = 2000"]
     lines += ["[bake]", "resolution = 512"]
     path = folder / "eye.toml"
