@@ -69,6 +69,7 @@ import numpy as np
 
 from pavonine.pipeline.convert.barb_clumps import clump, clump_guides
 from pavonine.pipeline.convert.barb_polylines import BarbCurves, polyline_tangents
+from pavonine.pipeline.maps.canvas import smoothstep
 
 #: Coverage below which a barb is loose (as :data:`pavonine.pipeline.convert.barb_layer.
 #: LOOSE_COVERAGE`: free filaments) and above which it is interlocked.
@@ -287,8 +288,7 @@ def lift_fan(
     :func:`seam_step_cm`, faded in over the first :data:`LIFT_RAMP_CM` of its barb
     (smoothstep of ``s``): step 6. of the module docstring."""
     lift = share * seam_step_cm(points, s, out, rachis_vertex)
-    x = np.clip(s / LIFT_RAMP_CM, 0.0, 1.0)
-    return out - np.where(rachis_vertex, 0.0, lift * x * x * (3.0 - 2.0 * x))
+    return out - np.where(rachis_vertex, 0.0, lift * smoothstep(0.0, LIFT_RAMP_CM, s))
 
 
 def _segment_share(s: np.ndarray, counts: np.ndarray) -> np.ndarray:
