@@ -128,9 +128,9 @@ def render_products(
 class RenderSession:
     """A stage synced once into one Mitsuba scene, rendered at its time and then, for frames, at
     others: as a Hydra delegate syncs frames, only the time-varying prims are translated again
-    (:class:`.motion.blur.MotionPlan`) and moved in the scene in place; when something varies that the
-    plan cannot move (a light, a lens, changing topology, the framing of a stage without camera),
-    the next frame is synced in full. ``sync_seconds`` holds each frame's sync time."""
+    (:class:`.motion.blur.MotionPlan`) and moved in the scene in place; when something varies
+    that the plan cannot move (a light, a lens, changing topology, the framing of a stage without
+    camera), the next frame is synced in full. ``sync_seconds`` holds each frame's sync time."""
 
     def __init__(self, stage_path: str | os.PathLike, options: RenderOptions):
         options.check()

@@ -161,8 +161,8 @@ class StageDelegate:
 
     def prototype_prim_shapes(self, root: Usd.Prim, prim: Usd.Prim) -> list:
         """The meshes of ``prim``, a gprim or curves inside the prototype ``root``, at this
-        delegate's time and in prototype space, as the sync made them (:mod:`.motion.blur` moves them
-        in place); none when its transform is unusable at this time (warned)."""
+        delegate's time and in prototype space, as the sync made them (:mod:`.motion.blur` moves
+        them in place); none when its transform is unusable at this time (warned)."""
         relative = np.eye(4) if prim == root else self.xforms.relative(prim, root)
         matrix = self._usable(prim, relative)
         if matrix is None:

@@ -85,8 +85,9 @@ def accumulate(total: np.ndarray | None, image: np.ndarray) -> np.ndarray:
     The first pass's image is kept as it comes (float32 from the film in single-precision
     variants: every float32 is exact in float64, so holding it rather than a float64 copy changes
     no sum); from the second pass on the sum is float64 and is added into in place, NumPy
-    converting ``image`` to float64 in buffered chunks rather than as a whole frame-sized copy. Each sum is the same IEEE double addition of the same values as
-    adding float64 copies, so the image is bit for bit what it was with float64 passes.
+    converting ``image`` to float64 in buffered chunks rather than as a whole frame-sized copy.
+    Each sum is the same IEEE double addition of the same values as adding float64 copies, so
+    the image is bit for bit what it was with float64 passes.
     """
     if total is None:
         return image

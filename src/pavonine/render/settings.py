@@ -96,7 +96,8 @@ class ProductSpec:
     pixel_aspect: float = 1.0
     conform: str = "expandAperture"
     disable_dof: bool = False
-    #: ``disableMotionBlur`` or ``instantaneousShutter``: the shutter is an instant (render/motion/blur.py)
+    #: ``disableMotionBlur`` or ``instantaneousShutter``: the shutter is an instant
+    #: (render/motion/blur.py)
     disable_blur: bool = False
     vars: list[RenderVarSpec] = field(default_factory=list)  # empty: the beauty image alone
 

@@ -6,8 +6,8 @@ rachis to the silhouette, with the maps sampled along them.
 the rachis tip; ``tip_barbs`` barbs per full turn radiate from the tip (paper §3.3.4: until the
 edges of the eyespot the barbs leave the shaft at a slight angle; at the centre of the eyespot,
 the apex of the shaft, they are arranged radially; ``tip_barbs = 0``: a feather without an eye,
-whose barbs all leave the rachis, has no fan and no radial zone). The maps say where: the *radial zone*
-(:func:`radial_zone`) is where the direction field of :mod:`pavonine.pipeline.convert.barbs`
+whose barbs all leave the rachis, has no fan and no radial zone). The maps say where: the
+*radial zone* (:func:`radial_zone`) is where the direction field of :mod:`pavonine.pipeline.convert.barbs`
 (measured from the displacement map's streaks) agrees with the ray from the tip. A rachis barb
 follows the field by midpoint (RK2) steps of ``segment_cm``, its axis' sign kept continuous,
 and ends where it enters the radial zone; a tip barb runs straight out (the field is radial

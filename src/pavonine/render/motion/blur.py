@@ -319,7 +319,8 @@ class MotionPlan:
 
 def _move_points(params, view, prim: Usd.Prim, group: str, indices: list[int], fast) -> bool:
     """Move a skinned prim's meshes in the shape group ``group`` by its points alone
-    (:class:`pavonine.render.motion.deform.PointsMove`); false when it cannot (then it is translated)."""
+    (:class:`pavonine.render.motion.deform.PointsMove`); false when it cannot (then it is
+    translated)."""
     import mitsuba as mi
 
     points = view.skinning.points.get(str(prim.GetPath()))

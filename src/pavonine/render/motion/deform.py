@@ -34,8 +34,9 @@ class PointsMove:
 
     def arrays(self, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray | None]] | None:
         """Each mesh's ``(positions, normals)`` (float32) at the skinned ``points`` (the prim's
-        local space, as :mod:`pavonine.render.skel` gives them); ``None`` when a normal degenerates (zero
-        area: the translation would mend it with face normals, so the prim is translated)."""
+        local space, as :mod:`pavonine.render.skel` gives them); ``None`` when a normal
+        degenerates (zero area: the translation would mend it with face normals, so the prim is
+        translated)."""
         if len(points) != len(self.topology.points):
             return None
         moved = replace(self.topology, points=np.asarray(points, dtype=np.float64))
